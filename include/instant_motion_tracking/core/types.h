@@ -1,0 +1,73 @@
+// Plain data types shared by every module of the core library.
+// No ROS in here: the core builds and is tested without catkin.
+#pragma once
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+#include <opencv2/core.hpp>
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace imt {
+
+// Pinhole intrinsics of the full-resolution image (px). `valid` is false when
+// unknown (no camera_info); callers then use a field-of-view default.
+struct CameraIntrinsics {
+  double fx = 0, fy = 0, cx = 0, cy = 0;
+  int width = 0, height = 0;
+  bool valid = false;
+
+  Eigen::Matrix3d K() const {
+    Eigen::Matrix3d k;
+    k << fx, 0, cx, 0, fy, cy, 0, 0, 1;
+    return k;
+  }
+  // Intrinsics of a w x h image with horizontal field of view `hfov_deg`,
+  // principal point at the centre and square pixels.
+  static CameraIntrinsics fromFieldOfView(int w, int h, double hfov_deg);
+};
+
+// One IMU sample in the IMU's own frame (sensor_msgs/Imu without ROS).
+struct ImuSample {
+  double stamp = 0;                                   // s
+  Eigen::Vector3d gyro = Eigen::Vector3d::Zero();     // rad/s
+  Eigen::Vector3d accel = Eigen::Vector3d::Zero();    // m/s^2, specific force (reads +g "up" at rest)
+  Eigen::Quaterniond orientation = Eigen::Quaterniond::Identity();  // R_world_imu, world z up
+  bool has_orientation = false;
+};
+
+// Background (camera) motion model classes, lowest to highest.
+enum class MotionModel : uint8_t { kInvalid = 0, kTranslation = 1, kSimilarity = 2, kHomography = 3 };
+
+// "translation", "similarity", "homography" or "invalid" (the CSV spelling).
+const char* motionModelName(MotionModel m);
+
+// Camera motion between two consecutive frames.
+struct CameraMotion {
+  MotionModel model = MotionModel::kInvalid;
+  Eigen::Matrix3d H = Eigen::Matrix3d::Identity();  // previous -> current pixels, H(2,2) = 1
+  int features = 0;  // features the fit saw
+  int inliers = 0;   // of which background inliers
+};
+
+// One feature of the motion data. Positions are full-resolution pixels.
+struct FeatureMotion {
+  uint32_t id = 0;          // persistent feature-path ID
+  float x = 0, y = 0;       // current position
+  float dx = 0, dy = 0;     // motion previous -> current minus camera motion at that point
+  float bg_weight = 1;      // 0 (foreground) .. 1 (background)
+  bool foreground = false;
+  uint16_t age = 0;         // frames tracked
+};
+
+// Compact per-frame motion data (paper 3.1): all the trackers ever see.
+struct MotionData {
+  double stamp = 0;  // s, the image header stamp
+  int width = 0, height = 0;
+  CameraMotion camera;
+  std::vector<FeatureMotion> features;
+};
+
+}  // namespace imt

@@ -1,0 +1,83 @@
+#include "instant_motion_tracking/core/options.h"
+
+#include <cmath>
+#include <sstream>
+
+namespace imt {
+namespace {
+
+// Collects the first violated bound as "name: must be ... (got v)".
+class Checker {
+ public:
+  explicit Checker(const char* scope) : scope_(scope) {}
+  template <class T>
+  void atLeast(const char* name, T value, T lo) {
+    if (!(value >= lo)) fail(name, "must be >= ", lo, value);
+  }
+  template <class T>
+  void inRange(const char* name, T value, T lo, T hi) {
+    if (!(value >= lo && value <= hi)) {
+      std::ostringstream os;
+      os << "must be in [" << lo << ", " << hi << "]";
+      failMsg(name, os.str(), value);
+    }
+  }
+  std::string error() const { return error_; }
+
+ private:
+  template <class T>
+  void fail(const char* name, const char* what, T bound, T value) {
+    std::ostringstream os;
+    os << what << bound;
+    failMsg(name, os.str(), value);
+  }
+  template <class T>
+  void failMsg(const char* name, const std::string& what, T value) {
+    if (!error_.empty()) return;
+    std::ostringstream os;
+    os << scope_ << "." << name << ": " << what << " (got " << value << ")";
+    error_ = os.str();
+  }
+  const char* scope_;
+  std::string error_;
+};
+
+}  // namespace
+
+std::string MotionAnalysisOptions::validate() const {
+  Checker c("motion_analysis");
+  c.atLeast("analysis_width", analysis_width, 0);
+  if (analysis_width > 0) c.atLeast("analysis_width", analysis_width, 32);
+  c.inRange("max_features", max_features, 8, 10000);
+  c.inRange("grid_cols", grid_cols, 1, 64);
+  c.inRange("grid_rows", grid_rows, 1, 64);
+  c.atLeast("min_distance", min_distance, 1.0);
+  c.inRange("quality_level", quality_level, 1e-6, 1.0);
+  c.inRange("lk_window", lk_window, 5, 101);
+  c.inRange("lk_levels", lk_levels, 0, 8);
+  c.inRange("lk_iterations", lk_iterations, 1, 100);
+  c.atLeast("fb_max_error", fb_max_error, 0.01);
+  c.inRange("irls_iterations", irls_iterations, 1, 100);
+  c.inRange("inlier_threshold", inlier_threshold, 1e-5, 0.5);
+  c.atLeast("min_inliers_similarity", min_inliers_similarity, 2);
+  c.atLeast("min_inliers_homography", min_inliers_homography, 4);
+  c.inRange("min_inlier_coverage", min_inlier_coverage, 0.0, 1.0);
+  c.inRange("max_scale_change", max_scale_change, 0.0, 1.0);
+  c.inRange("max_rotation", max_rotation, 0.0, M_PI);
+  c.atLeast("max_perspective", max_perspective, 0.0);
+  c.inRange("max_translation", max_translation, 0.0, 1.0);
+  c.inRange("temporal_prior", temporal_prior, 0.0, 1.0);
+  c.inRange("foreground_threshold", foreground_threshold, 0.0, 1.0);
+  return c.error();
+}
+
+std::string PipelineOptions::validate() const {
+  Checker c("");
+  c.inRange("cache_seconds", cache_seconds, 0.0, 600.0);
+  c.inRange("default_hfov_deg", default_hfov_deg, 1.0, 179.0);
+  std::string e = c.error();
+  if (!e.empty()) return e.substr(1);  // drop the empty scope's dot
+  return motion_analysis.validate();
+}
+
+}  // namespace imt

@@ -1,0 +1,33 @@
+// Conversions between the core's plain types and ROS messages. The pixel
+// convention differs at this boundary only: CameraInfo uses OpenCV's (pixel
+// centres at integers), the core ours (docs/conventions.md).
+#pragma once
+
+#include "instant_motion_tracking/MotionData.h"
+#include "instant_motion_tracking/core/types.h"
+
+#include <geometry_msgs/Pose.h>
+#include <sensor_msgs/CameraInfo.h>
+#include <sensor_msgs/Imu.h>
+#include <std_msgs/Header.h>
+
+#include <string>
+
+namespace imt {
+
+instant_motion_tracking::MotionData toMsg(const MotionData& md, const std_msgs::Header& header);
+MotionData fromMsg(const instant_motion_tracking::MotionData& msg);
+
+// False (with the reason) when K is not a usable pinhole (zero/NaN focal
+// length, no size); the caller then falls back to the field-of-view default.
+bool fromCameraInfo(const sensor_msgs::CameraInfo& info, CameraIntrinsics* k, std::string* why);
+sensor_msgs::CameraInfo toCameraInfo(const CameraIntrinsics& k, const std_msgs::Header& header);
+
+// False (with the reason) for NaN/Inf values; orientation_covariance[0] == -1
+// means the message carries no orientation.
+bool fromImuMsg(const sensor_msgs::Imu& msg, ImuSample* sample, std::string* why);
+sensor_msgs::Imu toImuMsg(const ImuSample& s, const std_msgs::Header& header);
+
+geometry_msgs::Pose toPoseMsg(const Eigen::Isometry3d& T);
+
+}  // namespace imt

@@ -1,0 +1,20 @@
+// The one place that loads ROS parameters into the options structs. Every
+// default is taken from the struct itself (the value it holds when passed in),
+// so defaults cannot drift between the code, config/default.yaml and the
+// parameter server.
+#pragma once
+
+#include "instant_motion_tracking/io/config.h"
+
+#include <ros/node_handle.h>
+
+#include <string>
+
+namespace imt {
+
+// Reads `config` from `nh` (a nodelet's private handle), parameter names and
+// nesting as in config/default.yaml. False with a message naming the
+// parameter when a value fails validation; `config` then keeps its defaults.
+bool loadConfigFromRos(const ros::NodeHandle& nh, Config* config, std::string* error);
+
+}  // namespace imt

@@ -1,0 +1,170 @@
+#include "instant_motion_tracking/io/config.h"
+
+#include <yaml-cpp/yaml.h>
+
+#include <cmath>
+#include <fstream>
+#include <set>
+#include <sstream>
+
+namespace imt {
+namespace {
+
+template <class T>
+const char* typeName();
+template <> const char* typeName<int>() { return "an integer"; }
+template <> const char* typeName<double>() { return "a number"; }
+template <> const char* typeName<bool>() { return "true or false"; }
+template <> const char* typeName<std::string>() { return "a string"; }
+
+// Reads fields from a YAML mapping; remembers the first error and which keys
+// were consumed, so unknown keys (typos) can be reported.
+class YamlReader {
+ public:
+  YamlReader(const YAML::Node& node, std::string prefix, std::string* error)
+      : node_(node), prefix_(std::move(prefix)), error_(error) {}
+
+  template <class T>
+  void operator()(const char* name, T& field, const char*) {
+    used_.insert(name);
+    if (!error_->empty()) return;
+    const YAML::Node n = node_[name];
+    if (!n) return;
+    try {
+      if (!n.IsScalar()) throw YAML::Exception(n.Mark(), "not a scalar");
+      T value = n.as<T>();
+      if constexpr (std::is_same_v<T, double>) {
+        if (!std::isfinite(value)) throw YAML::Exception(n.Mark(), "not finite");
+      }
+      field = value;
+    } catch (const YAML::Exception&) {
+      *error_ = prefix_ + name + ": expected " + typeName<T>() + ", got '" +
+                (n.IsScalar() ? n.Scalar() : std::string("a ") + (n.IsMap() ? "mapping" : "list")) +
+                "'";
+    }
+  }
+
+  template <class S>
+  void section(const char* name, S& sub) {
+    used_.insert(name);
+    if (!error_->empty()) return;
+    const YAML::Node n = node_[name];
+    if (!n || n.IsNull()) return;
+    if (!n.IsMap()) {
+      *error_ = prefix_ + name + ": expected a mapping";
+      return;
+    }
+    YamlReader inner(n, prefix_ + name + ".", error_);
+    sub.visit(inner);
+    inner.checkUnknown();
+  }
+
+  void checkUnknown() {
+    if (!error_->empty()) return;
+    for (const auto& kv : node_) {
+      const std::string key = kv.first.as<std::string>();
+      if (!used_.count(key)) {
+        *error_ = "unknown parameter '" + prefix_ + key + "'";
+        return;
+      }
+    }
+  }
+
+ private:
+  const YAML::Node node_;
+  std::string prefix_;
+  std::string* error_;
+  std::set<std::string> used_;
+};
+
+class Lister {
+ public:
+  explicit Lister(std::string prefix = "") : prefix_(std::move(prefix)) {}
+  template <class T>
+  void operator()(const char* name, T& field, const char*) {
+    std::ostringstream os;
+    if constexpr (std::is_same_v<T, bool>) {
+      os << (field ? "true" : "false");
+    } else if constexpr (std::is_same_v<T, std::string>) {
+      os << '"' << field << '"';
+    } else {
+      os << field;
+    }
+    out.emplace_back(prefix_ + name, os.str());
+  }
+  template <class S>
+  void section(const char* name, S& sub) {
+    Lister inner(prefix_ + name + ".");
+    sub.visit(inner);
+    out.insert(out.end(), inner.out.begin(), inner.out.end());
+  }
+  std::vector<std::pair<std::string, std::string>> out;
+
+ private:
+  std::string prefix_;
+};
+
+}  // namespace
+
+std::string RosShellOptions::validate() const {
+  if (queue_size < 1 || queue_size > 1000) return "queue_size: must be in [1, 1000]";
+  for (char c : frame_prefix) {
+    if (!(std::isalnum(static_cast<unsigned char>(c)) || c == '_' || c == '/'))
+      return "frame_prefix: only letters, digits, '_' and '/' are allowed";
+  }
+  return "";
+}
+
+std::string Config::validate() const {
+  std::string e = pipeline.validate();
+  return e.empty() ? ros.validate() : e;
+}
+
+bool loadConfigYaml(const std::string& text, const std::string& source, Config* config,
+                    std::string* error) {
+  std::string err;
+  YAML::Node root;
+  try {
+    root = YAML::Load(text);
+  } catch (const YAML::Exception& e) {
+    *error = source + ": not valid YAML: " + e.what();
+    return false;
+  }
+  Config c = *config;
+  if (root && !root.IsNull()) {
+    if (!root.IsMap()) {
+      *error = source + ": expected a mapping of parameters";
+      return false;
+    }
+    YamlReader reader(root, "", &err);
+    c.visit(reader);
+    reader.checkUnknown();
+  }
+  if (err.empty()) err = c.validate();
+  if (!err.empty()) {
+    *error = source + ": " + err;
+    return false;
+  }
+  *config = c;
+  return true;
+}
+
+bool loadConfigFile(const std::string& path, Config* config, std::string* error) {
+  std::ifstream in(path);
+  if (!in) {
+    *error = path + ": cannot open the config file";
+    return false;
+  }
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return loadConfigYaml(ss.str(), path, config, error);
+}
+
+std::vector<std::pair<std::string, std::string>> listParameters(const Config& config) {
+  Config c = config;
+  Lister l;
+  c.visit(l);
+  return l.out;
+}
+
+}  // namespace imt

@@ -1,0 +1,170 @@
+#include "instant_motion_tracking/ros/conversions.h"
+
+#include <cmath>
+
+namespace imt {
+namespace {
+bool finite3(const geometry_msgs::Vector3& v) {
+  return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z);
+}
+}  // namespace
+
+instant_motion_tracking::MotionData toMsg(const MotionData& md, const std_msgs::Header& header) {
+  instant_motion_tracking::MotionData m;
+  m.header = header;
+  m.width = md.width;
+  m.height = md.height;
+  m.model = static_cast<uint8_t>(md.camera.model);
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 3; ++c) m.homography[3 * r + c] = md.camera.H(r, c);
+  m.num_features = md.camera.features;
+  m.num_inliers = md.camera.inliers;
+  const size_t n = md.features.size();
+  m.ids.resize(n);
+  m.x.resize(n);
+  m.y.resize(n);
+  m.dx.resize(n);
+  m.dy.resize(n);
+  m.background_weight.resize(n);
+  m.foreground.resize(n);
+  m.age.resize(n);
+  for (size_t i = 0; i < n; ++i) {
+    const FeatureMotion& f = md.features[i];
+    m.ids[i] = f.id;
+    m.x[i] = f.x;
+    m.y[i] = f.y;
+    m.dx[i] = f.dx;
+    m.dy[i] = f.dy;
+    m.background_weight[i] = f.bg_weight;
+    m.foreground[i] = f.foreground ? 1 : 0;
+    m.age[i] = f.age;
+  }
+  return m;
+}
+
+MotionData fromMsg(const instant_motion_tracking::MotionData& m) {
+  MotionData md;
+  md.stamp = m.header.stamp.toSec();
+  md.width = static_cast<int>(m.width);
+  md.height = static_cast<int>(m.height);
+  md.camera.model = m.model <= 3 ? static_cast<MotionModel>(m.model) : MotionModel::kInvalid;
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 3; ++c) md.camera.H(r, c) = m.homography[3 * r + c];
+  if (!md.camera.H.allFinite()) {
+    md.camera.model = MotionModel::kInvalid;
+    md.camera.H.setIdentity();
+  }
+  md.camera.features = static_cast<int>(m.num_features);
+  md.camera.inliers = static_cast<int>(m.num_inliers);
+  // Malformed messages (arrays of different lengths) keep the common prefix.
+  const size_t n = std::min({m.ids.size(), m.x.size(), m.y.size(), m.dx.size(), m.dy.size(),
+                             m.background_weight.size(), m.foreground.size(), m.age.size()});
+  md.features.reserve(n);
+  for (size_t i = 0; i < n; ++i) {
+    FeatureMotion f;
+    f.id = m.ids[i];
+    f.x = m.x[i];
+    f.y = m.y[i];
+    f.dx = m.dx[i];
+    f.dy = m.dy[i];
+    if (!std::isfinite(f.x) || !std::isfinite(f.y) || !std::isfinite(f.dx) || !std::isfinite(f.dy))
+      continue;
+    f.bg_weight = m.background_weight[i];
+    f.foreground = m.foreground[i] != 0;
+    f.age = m.age[i];
+    md.features.push_back(f);
+  }
+  return md;
+}
+
+bool fromCameraInfo(const sensor_msgs::CameraInfo& info, CameraIntrinsics* k, std::string* why) {
+  const double fx = info.K[0], fy = info.K[4], cx = info.K[2], cy = info.K[5];
+  if (!(std::isfinite(fx) && std::isfinite(fy) && std::isfinite(cx) && std::isfinite(cy)) ||
+      fx <= 0 || fy <= 0) {
+    *why = "camera_info K has no usable focal length";
+    return false;
+  }
+  if (info.width == 0 || info.height == 0) {
+    *why = "camera_info has no image size";
+    return false;
+  }
+  k->fx = fx;
+  k->fy = fy;
+  k->cx = cx + 0.5;  // OpenCV/ROS pixel centres at integers -> ours at +0.5
+  k->cy = cy + 0.5;
+  k->width = static_cast<int>(info.width);
+  k->height = static_cast<int>(info.height);
+  k->valid = true;
+  return true;
+}
+
+sensor_msgs::CameraInfo toCameraInfo(const CameraIntrinsics& k, const std_msgs::Header& header) {
+  sensor_msgs::CameraInfo info;
+  info.header = header;
+  info.width = k.width;
+  info.height = k.height;
+  info.distortion_model = "plumb_bob";
+  info.D.assign(5, 0.0);
+  info.K = {k.fx, 0, k.cx - 0.5, 0, k.fy, k.cy - 0.5, 0, 0, 1};
+  info.R = {1, 0, 0, 0, 1, 0, 0, 0, 1};
+  info.P = {k.fx, 0, k.cx - 0.5, 0, 0, k.fy, k.cy - 0.5, 0, 0, 0, 1, 0};
+  return info;
+}
+
+bool fromImuMsg(const sensor_msgs::Imu& msg, ImuSample* s, std::string* why) {
+  if (!finite3(msg.angular_velocity) || !finite3(msg.linear_acceleration)) {
+    *why = "IMU sample with NaN/Inf angular velocity or acceleration";
+    return false;
+  }
+  s->stamp = msg.header.stamp.toSec();
+  s->gyro = {msg.angular_velocity.x, msg.angular_velocity.y, msg.angular_velocity.z};
+  s->accel = {msg.linear_acceleration.x, msg.linear_acceleration.y, msg.linear_acceleration.z};
+  s->has_orientation = msg.orientation_covariance[0] != -1.0;
+  if (s->has_orientation) {
+    const auto& q = msg.orientation;
+    Eigen::Quaterniond e(q.w, q.x, q.y, q.z);
+    const double n = e.norm();
+    if (!std::isfinite(n) || n < 0.5 || n > 1.5) {
+      s->has_orientation = false;  // zero/garbage quaternion: ignore it, keep the gyro
+    } else {
+      s->orientation = e.normalized();
+    }
+  }
+  return true;
+}
+
+sensor_msgs::Imu toImuMsg(const ImuSample& s, const std_msgs::Header& header) {
+  sensor_msgs::Imu m;
+  m.header = header;
+  m.angular_velocity.x = s.gyro.x();
+  m.angular_velocity.y = s.gyro.y();
+  m.angular_velocity.z = s.gyro.z();
+  m.linear_acceleration.x = s.accel.x();
+  m.linear_acceleration.y = s.accel.y();
+  m.linear_acceleration.z = s.accel.z();
+  if (s.has_orientation) {
+    m.orientation.x = s.orientation.x();
+    m.orientation.y = s.orientation.y();
+    m.orientation.z = s.orientation.z();
+    m.orientation.w = s.orientation.w();
+    m.orientation_covariance[0] = m.orientation_covariance[4] = m.orientation_covariance[8] = 1e-4;
+  } else {
+    m.orientation_covariance[0] = -1.0;
+  }
+  return m;
+}
+
+geometry_msgs::Pose toPoseMsg(const Eigen::Isometry3d& T) {
+  geometry_msgs::Pose p;
+  const Eigen::Quaterniond q(T.rotation());
+  p.position.x = T.translation().x();
+  p.position.y = T.translation().y();
+  p.position.z = T.translation().z();
+  p.orientation.x = q.x();
+  p.orientation.y = q.y();
+  p.orientation.z = q.z();
+  p.orientation.w = q.w();
+  return p;
+}
+
+}  // namespace imt

@@ -1,0 +1,104 @@
+#include "instant_motion_tracking/ros/conversions.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+namespace imt {
+namespace {
+
+TEST(Conversions, MotionDataRoundTrip) {
+  MotionData md;
+  md.stamp = 1000.25;
+  md.width = 640;
+  md.height = 480;
+  md.camera.model = MotionModel::kSimilarity;
+  md.camera.H << 1.01, -0.02, 3.5, 0.02, 1.01, -2.25, 0, 0, 1;
+  md.camera.features = 120;
+  md.camera.inliers = 100;
+  for (uint32_t i = 0; i < 5; ++i) {
+    FeatureMotion f;
+    f.id = 10 + i;
+    f.x = 1.5f * i;
+    f.y = 2.5f * i;
+    f.dx = 0.25f * i;
+    f.dy = -0.5f * i;
+    f.bg_weight = 0.2f * i;
+    f.foreground = i % 2;
+    f.age = static_cast<uint16_t>(3 * i);
+    md.features.push_back(f);
+  }
+  std_msgs::Header h;
+  h.stamp.fromSec(md.stamp);
+  h.frame_id = "camera";
+  const MotionData back = fromMsg(toMsg(md, h));
+  EXPECT_NEAR(back.stamp, md.stamp, 1e-9);
+  EXPECT_EQ(back.width, 640);
+  EXPECT_EQ(back.camera.model, MotionModel::kSimilarity);
+  EXPECT_TRUE(back.camera.H.isApprox(md.camera.H));
+  EXPECT_EQ(back.camera.inliers, 100);
+  ASSERT_EQ(back.features.size(), md.features.size());
+  for (size_t i = 0; i < md.features.size(); ++i) {
+    EXPECT_EQ(back.features[i].id, md.features[i].id);
+    EXPECT_FLOAT_EQ(back.features[i].dy, md.features[i].dy);
+    EXPECT_EQ(back.features[i].foreground, md.features[i].foreground);
+    EXPECT_EQ(back.features[i].age, md.features[i].age);
+  }
+}
+
+TEST(Conversions, MalformedMotionDataIsSanitised) {
+  instant_motion_tracking::MotionData m;
+  m.model = 42;  // unknown model
+  m.homography = {1, 0, NAN, 0, 1, 0, 0, 0, 1};
+  m.ids = {1, 2, 3};
+  m.x = {1, NAN, 3};
+  m.y = {1, 2, 3};
+  m.dx = {0, 0, 0};
+  m.dy = {0, 0, 0};
+  m.background_weight = {1, 1};  // shorter than the rest
+  m.foreground = {0, 0, 0};
+  m.age = {1, 1, 1};
+  const MotionData md = fromMsg(m);
+  EXPECT_EQ(md.camera.model, MotionModel::kInvalid);
+  EXPECT_TRUE(md.camera.H.isIdentity());
+  ASSERT_EQ(md.features.size(), 1u);  // common prefix of 2, minus the NaN one
+  EXPECT_EQ(md.features[0].id, 1u);
+}
+
+TEST(Conversions, CameraInfoShiftsThePrincipalPointByHalfAPixel) {
+  CameraIntrinsics k = CameraIntrinsics::fromFieldOfView(640, 480, 60.0);
+  std_msgs::Header h;
+  const sensor_msgs::CameraInfo info = toCameraInfo(k, h);
+  EXPECT_DOUBLE_EQ(info.K[2], 319.5);  // OpenCV convention: centre of a 640 px row
+  CameraIntrinsics back;
+  std::string why;
+  ASSERT_TRUE(fromCameraInfo(info, &back, &why)) << why;
+  EXPECT_DOUBLE_EQ(back.cx, 320.0);
+  EXPECT_DOUBLE_EQ(back.fx, k.fx);
+  sensor_msgs::CameraInfo bad = info;
+  bad.K[0] = 0;
+  EXPECT_FALSE(fromCameraInfo(bad, &back, &why));
+  EXPECT_NE(why.find("focal"), std::string::npos);
+}
+
+TEST(Conversions, ImuRejectsNaNAndReadsMissingOrientation) {
+  ImuSample s;
+  s.stamp = 5.0;
+  s.gyro = {0.1, 0.2, 0.3};
+  s.accel = {0, 0, 9.81};
+  s.has_orientation = false;
+  std_msgs::Header h;
+  h.stamp.fromSec(5.0);
+  sensor_msgs::Imu m = toImuMsg(s, h);
+  ImuSample back;
+  std::string why;
+  ASSERT_TRUE(fromImuMsg(m, &back, &why));
+  EXPECT_FALSE(back.has_orientation);
+  EXPECT_TRUE(back.gyro.isApprox(s.gyro));
+  m.angular_velocity.y = NAN;
+  EXPECT_FALSE(fromImuMsg(m, &back, &why));
+  EXPECT_NE(why.find("NaN"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace imt

@@ -1,0 +1,43 @@
+#!/usr/bin/env bash
+# Sets up (apt-get what is missing, build in _build/) and runs every test:
+# core/io/ROS gtests and the rostests. Prints a closing count line
+# "N passed, N failed, N skipped" and exits non-zero on any failure.
+# Extra arguments go to ctest (e.g. -R rostest, --output-on-failure is always on).
+set -euo pipefail
+source "$(dirname "$0")/setup.sh"
+imt_install
+imt_env
+imt_build all tests
+
+results="$IMT_BUILD_DIR/test_results"
+rm -rf "$results"
+status=0
+(cd "$IMT_BUILD_DIR" && ctest --output-on-failure -j"$(nproc)" "$@") || status=$?
+
+# Count test cases from the JUnit XML that gtest and rostest write (ctest
+# counts whole binaries). A binary that crashed before writing XML still
+# fails through ctest's status.
+/usr/bin/python3 - "$results" "$status" <<'PY'
+import glob, os, sys
+import xml.etree.ElementTree as ET
+root, status = sys.argv[1], int(sys.argv[2])
+passed = failed = skipped = 0
+for path in glob.glob(os.path.join(root, "**", "*.xml"), recursive=True):
+    try:
+        tree = ET.parse(path)
+    except ET.ParseError:
+        failed += 1
+        print(f"unreadable result file: {path}")
+        continue
+    for case in tree.iter("testcase"):
+        if case.find("failure") is not None or case.find("error") is not None:
+            failed += 1
+        elif case.find("skipped") is not None or case.get("status") == "notrun" or case.get("result") == "skipped":
+            skipped += 1
+        else:
+            passed += 1
+if status != 0 and failed == 0:
+    failed = 1  # ctest failed without a failing case in the XML (a crash, a timeout)
+print(f"{passed} passed, {failed} failed, {skipped} skipped")
+PY
+exit $status

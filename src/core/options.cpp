@@ -86,7 +86,8 @@ std::string PipelineOptions::validate() const {
   c.inRange("default_hfov_deg", default_hfov_deg, 1.0, 179.0);
   std::string e = c.error();
   if (!e.empty()) return e.substr(1);  // drop the empty scope's dot
-  return motion_analysis.validate();
+  e = motion_analysis.validate();
+  return e.empty() ? region_tracking.validate() : e;
 }
 
 }  // namespace imt

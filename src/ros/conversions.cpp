@@ -167,4 +167,30 @@ geometry_msgs::Pose toPoseMsg(const Eigen::Isometry3d& T) {
   return p;
 }
 
+instant_motion_tracking::TrackedRegion toMsg(const RegionState& s) {
+  instant_motion_tracking::TrackedRegion r;
+  r.id = s.id;
+  const bool lost = s.status == RegionStatus::kLost;
+  r.x = lost ? NAN : s.box.x;
+  r.y = lost ? NAN : s.box.y;
+  r.width = lost ? NAN : s.box.width;
+  r.height = lost ? NAN : s.box.height;
+  r.status = regionStatusName(s.status);
+  r.confidence = s.confidence;
+  r.vx = s.velocity.x();
+  r.vy = s.velocity.y();
+  r.inlier_ids = s.inliers;
+  r.outlier_ids = s.outliers;
+  return r;
+}
+
+instant_motion_tracking::TrackedRegionArray toMsg(const std::vector<RegionState>& states,
+                                                  const std_msgs::Header& header) {
+  instant_motion_tracking::TrackedRegionArray a;
+  a.header = header;
+  a.regions.reserve(states.size());
+  for (const RegionState& s : states) a.regions.push_back(toMsg(s));
+  return a;
+}
+
 }  // namespace imt

@@ -9,6 +9,8 @@
 //   template <class S> void section(const char* name, S& sub);       // nested struct
 #pragma once
 
+#include "instant_motion_tracking/core/region_tracker_options.h"
+
 #include <string>
 
 namespace imt {
@@ -47,8 +49,8 @@ struct MotionAnalysisOptions {
   double max_translation = 0.15;     // stability bound: motion of the frame centre, fraction of the diagonal
   double temporal_prior = 0.7;       // weight of last frame's background classification in the next fit (0 = none)
   // --- foreground / background ---
-  double foreground_residual = 0.0015;  // residual (fraction of the diagonal) at which a feature's background weight is 0.5
-  double residual_decay = 0.5;       // per-frame decay of a feature's smoothed residual (0 = this frame only)
+  double foreground_residual = 0.0012;  // accumulated residual (fraction of the diagonal) at which a feature's background weight is 0.5
+  double residual_decay = 0.85;      // per-frame decay of a feature's accumulated residual (0 = this frame only)
   double foreground_threshold = 0.5; // background weight below which a feature is flagged foreground
 
   template <class V>
@@ -80,8 +82,8 @@ struct MotionAnalysisOptions {
     v("max_perspective", max_perspective, "stability bound on |h20|, |h21| times the frame diagonal");
     v("max_translation", max_translation, "stability bound, fraction of the frame diagonal");
     v("temporal_prior", temporal_prior, "weight of last frame's background classification (0 = none)");
-    v("foreground_residual", foreground_residual, "residual (fraction of the diagonal) giving background weight 0.5");
-    v("residual_decay", residual_decay, "per-frame decay of a feature's smoothed residual");
+    v("foreground_residual", foreground_residual, "accumulated residual (fraction of the diagonal) giving background weight 0.5");
+    v("residual_decay", residual_decay, "per-frame decay of a feature's accumulated residual");
     v("foreground_threshold", foreground_threshold, "background weight below which a feature is foreground");
   }
   // Empty when usable, else a message naming the bad field.
@@ -93,12 +95,14 @@ struct PipelineOptions {
   double cache_seconds = 10.0;   // s of motion data kept for adding regions in the past and seeking
   double default_hfov_deg = 60.0;  // horizontal field of view assumed without camera_info (deg)
   MotionAnalysisOptions motion_analysis;
+  RegionTrackerOptions region_tracking;
 
   template <class V>
   void visit(V& v) {
     v("cache_seconds", cache_seconds, "s of motion data kept for past regions and seeking");
     v("default_hfov_deg", default_hfov_deg, "horizontal field of view without camera_info (deg)");
     v.section("motion_analysis", motion_analysis);
+    v.section("region_tracking", region_tracking);
   }
   std::string validate() const;
 };

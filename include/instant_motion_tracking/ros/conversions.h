@@ -4,6 +4,8 @@
 #pragma once
 
 #include "instant_motion_tracking/MotionData.h"
+#include "instant_motion_tracking/TrackedRegionArray.h"
+#include "instant_motion_tracking/core/region_tracker.h"
 #include "instant_motion_tracking/core/types.h"
 
 #include <geometry_msgs/Pose.h>
@@ -29,5 +31,10 @@ bool fromImuMsg(const sensor_msgs::Imu& msg, ImuSample* sample, std::string* why
 sensor_msgs::Imu toImuMsg(const ImuSample& s, const std_msgs::Header& header);
 
 geometry_msgs::Pose toPoseMsg(const Eigen::Isometry3d& T);
+
+// A lost region's box is reported as NaN (no estimate).
+instant_motion_tracking::TrackedRegion toMsg(const RegionState& s);
+instant_motion_tracking::TrackedRegionArray toMsg(const std::vector<RegionState>& states,
+                                                  const std_msgs::Header& header);
 
 }  // namespace imt

@@ -1,0 +1,19 @@
+// rviz markers for 2D tracking results: each region's box drawn on a plane
+// 1 m in front of the camera (back-projected with the intrinsics), in the
+// image's frame, with its id and status as text.
+#pragma once
+
+#include "instant_motion_tracking/core/region_tracker.h"
+
+#include <std_msgs/Header.h>
+#include <visualization_msgs/MarkerArray.h>
+
+#include <vector>
+
+namespace imt {
+
+visualization_msgs::MarkerArray regionMarkers(const std::vector<RegionState>& states,
+                                              const std_msgs::Header& header,
+                                              const CameraIntrinsics& k);
+
+}  // namespace imt

@@ -1,0 +1,65 @@
+#include "instant_motion_tracking/ros/markers.h"
+
+namespace imt {
+namespace {
+
+geometry_msgs::Point backProject(double u, double v, const CameraIntrinsics& k) {
+  geometry_msgs::Point p;
+  p.x = (u - k.cx) / k.fx;  // on the plane z = 1 m
+  p.y = (v - k.cy) / k.fy;
+  p.z = 1.0;
+  return p;
+}
+
+std_msgs::ColorRGBA colour(RegionStatus s) {
+  std_msgs::ColorRGBA c;
+  c.a = 1.0;
+  switch (s) {
+    case RegionStatus::kTracked: c.g = 1.0; break;
+    case RegionStatus::kFeatureless: c.b = 1.0; c.g = 0.6; break;
+    case RegionStatus::kOutOfView: c.r = 1.0; c.g = 0.6; break;
+    case RegionStatus::kLost: c.r = 1.0; break;
+  }
+  return c;
+}
+
+}  // namespace
+
+visualization_msgs::MarkerArray regionMarkers(const std::vector<RegionState>& states,
+                                              const std_msgs::Header& header,
+                                              const CameraIntrinsics& k) {
+  visualization_msgs::MarkerArray out;
+  visualization_msgs::Marker clear;
+  clear.header = header;
+  clear.ns = "regions";
+  clear.action = visualization_msgs::Marker::DELETEALL;
+  out.markers.push_back(clear);
+  for (const RegionState& s : states) {
+    if (s.status == RegionStatus::kLost || !k.valid) continue;
+    visualization_msgs::Marker box;
+    box.header = header;
+    box.ns = "regions";
+    box.id = static_cast<int>(s.id);
+    box.type = visualization_msgs::Marker::LINE_STRIP;
+    box.action = visualization_msgs::Marker::ADD;
+    box.pose.orientation.w = 1.0;
+    box.scale.x = 0.004;
+    box.color = colour(s.status);
+    const cv::Rect2d& b = s.box;
+    for (const auto& [u, v] : {std::pair<double, double>{b.x, b.y}, {b.br().x, b.y}, {b.br().x, b.br().y},
+                               {b.x, b.br().y}, {b.x, b.y}})
+      box.points.push_back(backProject(u, v, k));
+    out.markers.push_back(box);
+    visualization_msgs::Marker text = box;
+    text.ns = "region_labels";
+    text.type = visualization_msgs::Marker::TEXT_VIEW_FACING;
+    text.points.clear();
+    text.pose.position = backProject(b.x, b.y - 4, k);
+    text.scale.z = 0.03;
+    text.text = std::to_string(s.id) + " " + regionStatusName(s.status);
+    out.markers.push_back(text);
+  }
+  return out;
+}
+
+}  // namespace imt

@@ -1,7 +1,7 @@
 // The one pipeline object used by the nodelets and by track_bag, so that what
 // runs on a rosbag offline is exactly what runs live. It owns the motion
-// analysis and (in later versions) the region, planar-target and anchor
-// trackers, and times each stage.
+// analysis and the region tracking (planar targets and anchors arrive with
+// their issues), and times each stage.
 //
 // Usage:
 //   imt::Pipeline pipeline(options);              // options.validate() must be empty
@@ -13,6 +13,7 @@
 
 #include "instant_motion_tracking/core/motion_analysis.h"
 #include "instant_motion_tracking/core/options.h"
+#include "instant_motion_tracking/core/region_manager.h"
 #include "instant_motion_tracking/core/types.h"
 
 #include <map>
@@ -23,6 +24,7 @@ namespace imt {
 
 struct FrameResult {
   MotionData motion;
+  std::vector<RegionState> regions;  // every region's state at this frame
 };
 
 // Accumulated wall time per stage (s) and counts.
@@ -33,7 +35,9 @@ struct StageTimes {
 
 class Pipeline {
  public:
-  explicit Pipeline(const PipelineOptions& options);
+  // `keep_all_motion_data`: the offline mode of track_bag, where the cache
+  // holds the whole bag so items given at any frame are tracked both ways.
+  explicit Pipeline(const PipelineOptions& options, bool keep_all_motion_data = false);
 
   void setIntrinsics(const CameraIntrinsics& k) { intrinsics_ = k; }
   const CameraIntrinsics& intrinsics() const { return intrinsics_; }
@@ -44,6 +48,8 @@ class Pipeline {
   FrameResult processFrame(const cv::Mat& gray, double stamp);
   // Why the last frame reset the analysis ("" when it did not).
   const std::string& lastReset() const { return analyzer_.lastReset(); }
+  // The regions over the motion-data cache (add, remove, seek).
+  RegionManager& regions() { return regions_; }
   const StageTimes& times() const { return times_; }
   const PipelineOptions& options() const { return options_; }
 
@@ -52,6 +58,7 @@ class Pipeline {
   CameraIntrinsics intrinsics_;
   std::vector<ImuSample> imu_;
   MotionAnalyzer analyzer_;
+  RegionManager regions_;
   StageTimes times_;
 };
 

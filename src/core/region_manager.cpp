@@ -37,6 +37,7 @@ std::vector<RegionState> RegionManager::update(const MotionData& md) {
   }
   image_size_ = size;
   cache_.push_back(md);
+  cache_.back().sortByX();
   const uint64_t seq = seqOf(cache_.size() - 1);
   std::vector<RegionState> out;
   out.reserve(regions_.size());

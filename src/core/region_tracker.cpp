@@ -201,7 +201,19 @@ RegionState RegionTracker::step(const RegionState& state, const MotionData& md, 
 
   // Motion vectors in the tracking direction, with their priors.
   std::vector<Vec> vecs;
-  for (const FeatureMotion& f : md.features) {
+  // Crop: with features sorted by x only those near the search area are
+  // visited (src is the previous position going forward, up to max_shift
+  // away in x from the current one).
+  auto crop_begin = md.features.begin(), crop_end = md.features.end();
+  if (md.sorted_by_x) {
+    const double margin = dir == Direction::kForward ? md.max_shift + 1.0 : 1.0;
+    crop_begin = std::lower_bound(md.features.begin(), md.features.end(), search.x - margin,
+                             [](const FeatureMotion& f, double x) { return f.x < x; });
+    crop_end = std::upper_bound(crop_begin, md.features.end(), search.br().x + margin,
+                            [](double x, const FeatureMotion& f) { return x < f.x; });
+  }
+  for (auto fit = crop_begin; fit != crop_end; ++fit) {
+    const FeatureMotion& f = *fit;
     if (f.age == 0) continue;  // just detected: no motion measured yet
     const Eigen::Vector2d cur(f.x, f.y);
     const Eigen::Vector2d prev = applyH(H_inv, cur - Eigen::Vector2d(f.dx, f.dy));

@@ -1,5 +1,6 @@
 #include "instant_motion_tracking/core/types.h"
 
+#include <algorithm>
 #include <cmath>
 
 namespace imt {
@@ -13,6 +14,22 @@ CameraIntrinsics CameraIntrinsics::fromFieldOfView(int w, int h, double hfov_deg
   k.cy = 0.5 * h;
   k.valid = w > 0 && h > 0 && hfov_deg > 0 && hfov_deg < 180;
   return k;
+}
+
+void MotionData::sortByX() {
+  std::sort(features.begin(), features.end(),
+            [](const FeatureMotion& a, const FeatureMotion& b) { return a.x < b.x; });
+  const Eigen::Matrix3d H_inv = camera.H.inverse();
+  float m = 0;
+  for (const FeatureMotion& f : features) {
+    if (f.age == 0) continue;
+    const Eigen::Vector3d cur(f.x - f.dx, f.y - f.dy, 1.0);
+    const Eigen::Vector3d prev = H_inv * cur;
+    if (std::abs(prev.z()) < 1e-12) continue;
+    m = std::max(m, static_cast<float>(std::abs(prev.x() / prev.z() - f.x)));
+  }
+  max_shift = m;
+  sorted_by_x = true;
 }
 
 const char* motionModelName(MotionModel m) {

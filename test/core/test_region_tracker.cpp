@@ -175,3 +175,28 @@ TEST(RegionTracker, InvalidCameraModelAndEmptyMotionDataDoNotBreakIt) {
 
 }  // namespace
 }  // namespace imt
+
+namespace imt {
+namespace {
+
+// Cropping by binary search over x-sorted features must not change results.
+TEST(RegionTracker, SortedCropGivesTheSameTrackAsAFullScan) {
+  World w = makeWorld();
+  Object card;
+  card.points = randomPoints(60, 120, 90, 9, true);
+  card.half_size = {60, 45};
+  card.centre = [](int k) { return Eigen::Vector2d(300 - 4.0 * k, 220 + 2.0 * k); };
+  card.scale = [](int) { return 1.0; };
+  w.objects.push_back(card);
+  auto md = w.motionData(40);
+  const Track plain = trackForward(md, w.box(0, 0), 0);
+  for (auto& m : md) m.sortByX();
+  const Track sorted = trackForward(md, w.box(0, 0), 0);
+  for (size_t k = 0; k < plain.states.size(); ++k) {
+    EXPECT_NEAR(plain.states[k].box.x, sorted.states[k].box.x, 1e-6) << k;
+    EXPECT_NEAR(plain.states[k].box.width, sorted.states[k].box.width, 1e-6) << k;
+  }
+}
+
+}  // namespace
+}  // namespace imt

@@ -68,6 +68,12 @@ struct MotionData {
   int width = 0, height = 0;
   CameraMotion camera;
   std::vector<FeatureMotion> features;
+  // Set by sortByX(): features ordered by x, and the largest |current -
+  // previous| displacement (px), so trackers crop a region's features by
+  // binary search and per-region work stays proportional to them.
+  bool sorted_by_x = false;
+  float max_shift = 0;
+  void sortByX();
 };
 
 }  // namespace imt

@@ -1,0 +1,114 @@
+// Planar target tracking (paper 3.3): the four corners of a target of known
+// physical size, from a rigid 6DoF pose solved every frame with
+// Levenberg-Marquardt (Ceres, robust loss, autodiff Jacobians), warm-started
+// from the previous pose. Features inside the target's quad live on its plane
+// as 3D points (target coordinates), keyed by feature ID, so the model gathers
+// evidence over time instead of being rebuilt; features that enter the quad
+// later join through the current pose once a second frame confirms them, and
+// points whose reprojection disagrees (occluders, off-plane) are dropped. The
+// corners are the projections of the target's corners, so there is no skew
+// drift as with chained homographies (which remain available, model
+// "homography", for comparison).
+//
+// Target frame (interface spec): origin at the target's centre, x along
+// TL->TR, y along TL->BL, z = x cross y. Pixels as in docs/conventions.md.
+//
+// Usage:
+//   std::string err;
+//   auto t = imt::PlanarTargetTracker::create(opt, 1, corners, 0.6, 0.45, K, md_at_init, &err);
+//   for each next frame (either direction):  t->step(md, H_last_to_this, H_valid);
+//   t->state();
+// Threading: one tracker per thread; copyable (a copy continues independently).
+#pragma once
+
+#include "instant_motion_tracking/core/types.h"
+
+#include <Eigen/Geometry>
+#include <opencv2/core.hpp>
+
+#include <array>
+#include <map>
+#include <memory>
+#include <string>
+
+namespace imt {
+
+struct PlanarTargetOptions {
+  std::string model = "perspective";  // perspective (rigid 6DoF pose, LM) | homography (chained, for comparison)
+  double loss_scale = 1.5;            // px; Huber loss scale of the reprojection residuals
+  int max_iterations = 20;            // LM iterations per frame
+  double outlier_error = 3.0;         // px; model points reprojecting worse than this are dropped
+  double join_error = 1.0;            // px; a new point joins when its second observation agrees this well
+  int min_points = 6;                 // fewer model points visible: predicted by the camera motion
+  double confidence_points = 30;      // model points at which confidence reaches 1
+
+  template <class V>
+  void visit(V& v) {
+    v("model", model, "perspective (rigid 6DoF pose, LM) | homography (chained, for comparison)");
+    v("loss_scale", loss_scale, "px; Huber loss scale of the reprojection residuals");
+    v("max_iterations", max_iterations, "LM iterations per frame");
+    v("outlier_error", outlier_error, "px; model points reprojecting worse are dropped");
+    v("join_error", join_error, "px; a new point joins when its second observation agrees this well");
+    v("min_points", min_points, "fewer model points visible: predicted by the camera motion");
+    v("confidence_points", confidence_points, "model points at which confidence reaches 1");
+  }
+  std::string validate() const;
+};
+
+enum class TargetStatus : uint8_t { kTracked, kOutOfView, kLost };
+const char* targetStatusName(TargetStatus s);  // "tracked", "out_of_view", "lost"
+
+struct PlanarTargetState {
+  uint32_t id = 0;
+  double stamp = 0;
+  std::array<cv::Point2d, 4> corners;  // TL, TR, BR, BL projections (px)
+  Eigen::Isometry3d T_cam_target = Eigen::Isometry3d::Identity();
+  double width_m = 0, height_m = 0;
+  TargetStatus status = TargetStatus::kTracked;
+  double confidence = 0;
+  int points = 0;          // model points that supported this frame's pose
+  double rms_error = 0;    // px, reprojection RMS of those points
+  std::string reason;      // why lost
+};
+
+// Empty when the four corners form a usable convex quad (TL, TR, BR, BL in
+// either winding), else why not.
+std::string validateQuad(const std::array<cv::Point2d, 4>& corners);
+
+class PlanarTargetTracker {
+ public:
+  // Fails (nullptr + message) on a bad quad or size, or invalid intrinsics.
+  static std::unique_ptr<PlanarTargetTracker> create(const PlanarTargetOptions& options, uint32_t id,
+                                                     const std::array<cv::Point2d, 4>& corners,
+                                                     double width_m, double height_m,
+                                                     const CameraIntrinsics& k, const MotionData& md,
+                                                     std::string* error);
+
+  // Moves the target to the frame of `md` (the next frame in either time
+  // direction). `H_last_to_this` is the background motion from the last
+  // frame to this one; used (when valid) to predict a target with too few
+  // visible points.
+  const PlanarTargetState& step(const MotionData& md, const Eigen::Matrix3d& H_last_to_this, bool H_valid);
+  const PlanarTargetState& state() const { return state_; }
+
+ private:
+  PlanarTargetTracker() = default;
+  void projectCorners();
+  bool poseFromCorners(const std::array<cv::Point2d, 4>& corners);
+  Eigen::Vector2d project(const Eigen::Vector3d& p_target) const;
+  bool backProject(const Eigen::Vector2d& px, Eigen::Vector2d* xy) const;
+  void addNewPoints(const MotionData& md);
+  void stepPerspective(const MotionData& md);
+  void stepHomography(const MotionData& md);
+  void predict(const Eigen::Matrix3d& H);
+
+  PlanarTargetOptions options_;
+  CameraIntrinsics k_;
+  PlanarTargetState state_;
+  std::map<uint32_t, Eigen::Vector2d> model_;       // feature id -> (X, Y) on the target plane (m)
+  std::map<uint32_t, Eigen::Vector2d> candidates_;  // first observation, awaiting confirmation
+  std::map<uint32_t, bool> rejected_;               // ids that must not join again
+  std::map<uint32_t, Eigen::Vector2d> last_px_;     // last frame's positions (homography model)
+};
+
+}  // namespace imt

@@ -1,0 +1,366 @@
+#include "instant_motion_tracking/core/planar_target.h"
+
+#include <ceres/ceres.h>
+#include <ceres/rotation.h>
+#include <opencv2/calib3d.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include <cmath>
+#include <sstream>
+
+namespace imt {
+namespace {
+
+// Reprojection residual of a point (X, Y, 0) of the target plane under the
+// pose (angle-axis, translation) from target to camera.
+struct Reprojection {
+  Reprojection(const Eigen::Vector2d& xy, const Eigen::Vector2d& uv, const CameraIntrinsics& k)
+      : X(xy.x()), Y(xy.y()), u(uv.x()), v(uv.y()), fx(k.fx), fy(k.fy), cx(k.cx), cy(k.cy) {}
+  template <class T>
+  bool operator()(const T* aa, const T* t, T* r) const {
+    const T p[3] = {T(X), T(Y), T(0)};
+    T q[3];
+    ceres::AngleAxisRotatePoint(aa, p, q);
+    q[0] += t[0];
+    q[1] += t[1];
+    q[2] += t[2];
+    if (q[2] < T(1e-6)) return false;  // behind the camera: reject the step
+    r[0] = T(fx) * q[0] / q[2] + T(cx) - T(u);
+    r[1] = T(fy) * q[1] / q[2] + T(cy) - T(v);
+    return true;
+  }
+  double X, Y, u, v, fx, fy, cx, cy;
+};
+
+std::array<Eigen::Vector3d, 4> targetCorners(double w, double h) {
+  return {Eigen::Vector3d(-w / 2, -h / 2, 0), Eigen::Vector3d(w / 2, -h / 2, 0),
+          Eigen::Vector3d(w / 2, h / 2, 0), Eigen::Vector3d(-w / 2, h / 2, 0)};
+}
+
+double quadArea(const std::array<cv::Point2d, 4>& c) {
+  double a = 0;
+  for (int i = 0; i < 4; ++i) a += c[i].x * c[(i + 1) % 4].y - c[(i + 1) % 4].x * c[i].y;
+  return 0.5 * a;
+}
+
+double fractionInside(const std::array<cv::Point2d, 4>& c, int w, int h) {
+  std::vector<cv::Point2f> quad, img = {{0, 0}, {float(w), 0}, {float(w), float(h)}, {0, float(h)}}, inter;
+  for (const auto& p : c) quad.emplace_back(static_cast<float>(p.x), static_cast<float>(p.y));
+  if (quadArea(c) < 0) std::reverse(quad.begin(), quad.end());
+  const double area = std::abs(quadArea(c));
+  if (area <= 0) return 0;
+  const float ia = cv::intersectConvexConvex(quad, img, inter, true);
+  return ia / area;
+}
+
+}  // namespace
+
+const char* targetStatusName(TargetStatus s) {
+  switch (s) {
+    case TargetStatus::kTracked: return "tracked";
+    case TargetStatus::kOutOfView: return "out_of_view";
+    case TargetStatus::kLost: break;
+  }
+  return "lost";
+}
+
+std::string PlanarTargetOptions::validate() const {
+  if (model != "perspective" && model != "homography")
+    return "planar_tracking.model: must be perspective or homography (got '" + model + "')";
+  if (!(loss_scale > 0)) return "planar_tracking.loss_scale: must be > 0";
+  if (max_iterations < 1 || max_iterations > 200) return "planar_tracking.max_iterations: must be in [1, 200]";
+  if (!(outlier_error > 0)) return "planar_tracking.outlier_error: must be > 0";
+  if (!(join_error > 0)) return "planar_tracking.join_error: must be > 0";
+  if (min_points < 4) return "planar_tracking.min_points: must be >= 4";
+  if (!(confidence_points >= 1)) return "planar_tracking.confidence_points: must be >= 1";
+  return "";
+}
+
+std::string validateQuad(const std::array<cv::Point2d, 4>& c) {
+  for (const auto& p : c)
+    if (!std::isfinite(p.x) || !std::isfinite(p.y)) return "corner with a NaN or infinite coordinate";
+  for (int i = 0; i < 4; ++i)
+    for (int j = i + 1; j < 4; ++j)
+      if (cv::norm(c[i] - c[j]) < 2.0) return "corners " + std::to_string(i) + " and " + std::to_string(j) + " coincide";
+  int sign = 0;
+  for (int i = 0; i < 4; ++i) {
+    const cv::Point2d a = c[(i + 1) % 4] - c[i], b = c[(i + 2) % 4] - c[(i + 1) % 4];
+    const double cross = a.x * b.y - a.y * b.x;
+    const int s = cross > 1e-9 ? 1 : cross < -1e-9 ? -1 : 0;
+    if (s == 0) return "three corners are collinear";
+    if (sign != 0 && s != sign) return "quad is not convex (corners must be TL, TR, BR, BL)";
+    sign = s;
+  }
+  if (std::abs(quadArea(c)) < 25.0) return "degenerate quad (area below 25 px^2)";
+  return "";
+}
+
+std::unique_ptr<PlanarTargetTracker> PlanarTargetTracker::create(
+    const PlanarTargetOptions& options, uint32_t id, const std::array<cv::Point2d, 4>& corners,
+    double width_m, double height_m, const CameraIntrinsics& k, const MotionData& md,
+    std::string* error) {
+  if (std::string e = options.validate(); !e.empty()) {
+    *error = e;
+    return nullptr;
+  }
+  if (!(width_m > 0) || !(height_m > 0) || !std::isfinite(width_m) || !std::isfinite(height_m)) {
+    *error = "target size must be positive (got " + std::to_string(width_m) + " x " + std::to_string(height_m) + " m)";
+    return nullptr;
+  }
+  if (!k.valid || !(k.fx > 0) || !(k.fy > 0)) {
+    *error = "camera intrinsics are not valid";
+    return nullptr;
+  }
+  if (std::string e = validateQuad(corners); !e.empty()) {
+    *error = e;
+    return nullptr;
+  }
+  std::unique_ptr<PlanarTargetTracker> t(new PlanarTargetTracker);
+  t->options_ = options;
+  t->k_ = k;
+  t->state_.id = id;
+  t->state_.stamp = md.stamp;
+  t->state_.width_m = width_m;
+  t->state_.height_m = height_m;
+  if (!t->poseFromCorners(corners)) {
+    *error = "no pose explains the four corners";
+    return nullptr;
+  }
+  t->state_.corners = corners;
+  // Every feature inside the quad now lies on the target plane.
+  for (const FeatureMotion& f : md.features) {
+    Eigen::Vector2d xy;
+    if (cv::pointPolygonTest(std::vector<cv::Point2f>(corners.begin(), corners.end()), cv::Point2f(f.x, f.y), false) > 0 &&
+        t->backProject({f.x, f.y}, &xy))
+      t->model_[f.id] = xy;
+  }
+  for (const FeatureMotion& f : md.features) t->last_px_[f.id] = {f.x, f.y};
+  t->state_.points = static_cast<int>(t->model_.size());
+  t->state_.confidence = std::min(1.0, t->model_.size() / options.confidence_points);
+  return t;
+}
+
+bool PlanarTargetTracker::poseFromCorners(const std::array<cv::Point2d, 4>& corners) {
+  std::vector<cv::Point3d> obj;
+  for (const auto& p : targetCorners(state_.width_m, state_.height_m)) obj.emplace_back(p.x(), p.y(), p.z());
+  const std::vector<cv::Point2d> img(corners.begin(), corners.end());
+  const cv::Matx33d K(k_.fx, 0, k_.cx, 0, k_.fy, k_.cy, 0, 0, 1);
+  cv::Vec3d rvec, tvec;
+  bool ok = false;
+  try {
+    ok = cv::solvePnP(obj, img, K, cv::noArray(), rvec, tvec, false, cv::SOLVEPNP_IPPE);
+  } catch (const cv::Exception&) {
+    ok = false;
+  }
+  if (!ok || tvec[2] <= 0) return false;
+  const Eigen::Vector3d r(rvec[0], rvec[1], rvec[2]);
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  if (r.norm() > 1e-12) T.linear() = Eigen::AngleAxisd(r.norm(), r.normalized()).toRotationMatrix();
+  T.translation() = Eigen::Vector3d(tvec[0], tvec[1], tvec[2]);
+  state_.T_cam_target = T;
+  return true;
+}
+
+Eigen::Vector2d PlanarTargetTracker::project(const Eigen::Vector3d& p_target) const {
+  const Eigen::Vector3d q = state_.T_cam_target * p_target;
+  return {k_.fx * q.x() / q.z() + k_.cx, k_.fy * q.y() / q.z() + k_.cy};
+}
+
+bool PlanarTargetTracker::backProject(const Eigen::Vector2d& px, Eigen::Vector2d* xy) const {
+  const Eigen::Vector3d d((px.x() - k_.cx) / k_.fx, (px.y() - k_.cy) / k_.fy, 1.0);
+  const Eigen::Matrix3d R = state_.T_cam_target.linear();
+  const Eigen::Vector3d t = state_.T_cam_target.translation();
+  const Eigen::Vector3d n = R.col(2);
+  const double denom = n.dot(d);
+  if (std::abs(denom) < 1e-9) return false;
+  const double s = n.dot(t) / denom;
+  if (s <= 0) return false;
+  const Eigen::Vector3d p = R.transpose() * (s * d - t);
+  *xy = p.head<2>();
+  return std::abs(xy->x()) <= state_.width_m / 2 && std::abs(xy->y()) <= state_.height_m / 2;
+}
+
+void PlanarTargetTracker::projectCorners() {
+  const auto c = targetCorners(state_.width_m, state_.height_m);
+  for (int i = 0; i < 4; ++i) {
+    const Eigen::Vector2d p = project(c[i]);
+    state_.corners[i] = cv::Point2d(p.x(), p.y());
+  }
+}
+
+void PlanarTargetTracker::addNewPoints(const MotionData& md) {
+  std::vector<cv::Point2f> quad(state_.corners.begin(), state_.corners.end());
+  std::map<uint32_t, Eigen::Vector2d> candidates;
+  std::map<uint32_t, bool> rejected;
+  for (const FeatureMotion& f : md.features) {
+    if (model_.count(f.id)) continue;
+    if (rejected_.count(f.id)) {
+      rejected[f.id] = true;  // keep only ids still around
+      continue;
+    }
+    if (cv::pointPolygonTest(quad, cv::Point2f(f.x, f.y), false) <= 0) continue;
+    Eigen::Vector2d xy;
+    if (!backProject({f.x, f.y}, &xy)) continue;
+    const auto c = candidates_.find(f.id);
+    if (c == candidates_.end()) {
+      candidates[f.id] = xy;
+      continue;
+    }
+    // Second observation: its first plane position must reproject here.
+    const double err = (project({c->second.x(), c->second.y(), 0}) - Eigen::Vector2d(f.x, f.y)).norm();
+    if (err < options_.join_error) {
+      model_[f.id] = 0.5 * (c->second + xy);
+    } else {
+      rejected[f.id] = true;  // off the plane or moving on its own
+    }
+  }
+  candidates_ = std::move(candidates);
+  rejected_ = std::move(rejected);
+}
+
+void PlanarTargetTracker::stepPerspective(const MotionData& md) {
+  struct Obs {
+    uint32_t id;
+    Eigen::Vector2d xy, uv;
+  };
+  std::vector<Obs> obs;
+  for (const FeatureMotion& f : md.features) {
+    const auto m = model_.find(f.id);
+    if (m != model_.end()) obs.push_back({f.id, m->second, {f.x, f.y}});
+  }
+  state_.points = static_cast<int>(obs.size());
+  if (static_cast<int>(obs.size()) < options_.min_points) return;
+
+  const Eigen::AngleAxisd aa0(state_.T_cam_target.linear());
+  double aa[3], t[3];
+  for (int i = 0; i < 3; ++i) {
+    aa[i] = aa0.angle() * aa0.axis()(i);
+    t[i] = state_.T_cam_target.translation()(i);
+  }
+  ceres::Problem problem;
+  for (const Obs& o : obs) {
+    problem.AddResidualBlock(
+        new ceres::AutoDiffCostFunction<Reprojection, 2, 3, 3>(new Reprojection(o.xy, o.uv, k_)),
+        new ceres::HuberLoss(options_.loss_scale), aa, t);
+  }
+  ceres::Solver::Options so;
+  so.linear_solver_type = ceres::DENSE_QR;
+  so.max_num_iterations = options_.max_iterations;
+  so.num_threads = 1;
+  so.logging_type = ceres::SILENT;
+  ceres::Solver::Summary summary;
+  ceres::Solve(so, &problem, &summary);
+  if (!summary.IsSolutionUsable() || t[2] <= 0) {
+    state_.points = 0;
+    return;
+  }
+  const Eigen::Vector3d r(aa[0], aa[1], aa[2]);
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  if (r.norm() > 1e-12) T.linear() = Eigen::AngleAxisd(r.norm(), r.normalized()).toRotationMatrix();
+  T.translation() = Eigen::Vector3d(t[0], t[1], t[2]);
+  state_.T_cam_target = T;
+
+  // Drop points that disagree with the pose (occluders, off-plane).
+  double sq = 0;
+  int inliers = 0;
+  for (const Obs& o : obs) {
+    const double e = (project({o.xy.x(), o.xy.y(), 0}) - o.uv).norm();
+    if (e > options_.outlier_error) {
+      model_.erase(o.id);
+      rejected_[o.id] = true;
+    } else {
+      sq += e * e;
+      ++inliers;
+    }
+  }
+  state_.points = inliers;
+  state_.rms_error = inliers ? std::sqrt(sq / inliers) : 0;
+}
+
+void PlanarTargetTracker::stepHomography(const MotionData& md) {
+  std::vector<cv::Point2f> quad(state_.corners.begin(), state_.corners.end());
+  std::vector<cv::Point2f> src, dst;
+  for (const FeatureMotion& f : md.features) {
+    const auto p = last_px_.find(f.id);
+    if (p == last_px_.end()) continue;
+    const cv::Point2f s(p->second.x(), p->second.y());
+    if (cv::pointPolygonTest(quad, s, false) <= 0) continue;
+    src.push_back(s);
+    dst.emplace_back(f.x, f.y);
+  }
+  state_.points = static_cast<int>(src.size());
+  if (static_cast<int>(src.size()) < std::max(8, options_.min_points)) {
+    state_.points = 0;
+    return;
+  }
+  cv::Mat inlier_mask;
+  const cv::Mat H = cv::findHomography(src, dst, cv::RANSAC, 2.0, inlier_mask);
+  if (H.empty()) {
+    state_.points = 0;
+    return;
+  }
+  state_.points = cv::countNonZero(inlier_mask);
+  std::vector<cv::Point2d> in(state_.corners.begin(), state_.corners.end()), out;
+  cv::perspectiveTransform(in, out, H);
+  std::array<cv::Point2d, 4> c;
+  std::copy(out.begin(), out.end(), c.begin());
+  state_.corners = c;
+  poseFromCorners(c);
+}
+
+void PlanarTargetTracker::predict(const Eigen::Matrix3d& H) {
+  std::array<cv::Point2d, 4> c;
+  for (int i = 0; i < 4; ++i) {
+    const Eigen::Vector3d p = H * Eigen::Vector3d(state_.corners[i].x, state_.corners[i].y, 1);
+    c[i] = cv::Point2d(p.x() / p.z(), p.y() / p.z());
+  }
+  if (validateQuad(c).empty() && poseFromCorners(c)) {
+    if (options_.model == "perspective") {
+      projectCorners();
+    } else {
+      state_.corners = c;
+    }
+  }
+}
+
+const PlanarTargetState& PlanarTargetTracker::step(const MotionData& md, const Eigen::Matrix3d& H_last_to_this,
+                                                   bool H_valid) {
+  state_.stamp = md.stamp;
+  if (state_.status == TargetStatus::kLost) return state_;
+  if (options_.model == "homography") {
+    stepHomography(md);
+  } else {
+    stepPerspective(md);
+  }
+  const bool measured = state_.points >= options_.min_points;
+  if (measured) {
+    if (options_.model == "perspective") projectCorners();
+    addNewPoints(md);
+  } else {
+    if (H_valid && H_last_to_this.allFinite()) predict(H_last_to_this);
+    // Back in view after a prediction: features inside the predicted quad
+    // become candidates, and the rigid fit takes over once enough join.
+    if (fractionInside(state_.corners, md.width, md.height) > 0.05) addNewPoints(md);
+  }
+  for (const FeatureMotion& f : md.features) last_px_[f.id] = {f.x, f.y};
+  if (last_px_.size() > 4 * md.features.size() + 100) {  // forget ids long gone
+    std::map<uint32_t, Eigen::Vector2d> keep;
+    for (const FeatureMotion& f : md.features) keep[f.id] = {f.x, f.y};
+    last_px_ = std::move(keep);
+  }
+
+  const double inside = fractionInside(state_.corners, md.width, md.height);
+  state_.confidence = measured ? std::min(1.0, state_.points / options_.confidence_points) : 0.2;
+  if (!validateQuad(state_.corners).empty() || state_.T_cam_target.translation().z() <= 0) {
+    state_.status = TargetStatus::kLost;
+    state_.reason = "the target's quad degenerated";
+    state_.confidence = 0;
+  } else if (inside < 0.05 || (!measured && inside < 0.5)) {
+    state_.status = TargetStatus::kOutOfView;
+  } else {
+    state_.status = TargetStatus::kTracked;
+  }
+  return state_;
+}
+
+}  // namespace imt

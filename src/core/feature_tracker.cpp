@@ -10,10 +10,10 @@
 namespace imt {
 namespace {
 
-// A track whose forward result lands farther than this (analysis px) from its
-// constant-velocity prediction is verified by tracking back. Larger than the
-// LK noise (~0.05 px) and than the frame-to-frame velocity change of smooth
-// hand-held motion at 320 px width, so only real jolts and slips trigger it.
+// A track whose acceleration differs from the median acceleration of all
+// tracks by more than this (analysis px per frame^2) is verified by tracking
+// back. Well above the LK noise (~0.05 px); shake moves all tracks alike, so
+// mostly slips, occlusions and independently moving objects trigger it.
 constexpr float kAccelerationGate = 1.0f;
 // A track whose LK patch error exceeds this multiple of the frame's median is
 // verified too (occlusions and lighting jumps raise the patch error).
@@ -120,6 +120,22 @@ void FeatureTracker::trackForward() {
     err_gate = kPatchErrorGate * errs[errs.size() / 2];
   }
 
+  // The crowd's acceleration (median over tracks with a velocity): camera
+  // shake accelerates every track alike and is no reason for suspicion.
+  vx.clear();
+  vy.clear();
+  for (size_t i = 0; i < n; ++i) {
+    if (!status_[i] || tracks_[i].age == 0) continue;
+    vx.push_back(pts_cur_[i].x - guesses_[i].x);
+    vy.push_back(pts_cur_[i].y - guesses_[i].y);
+  }
+  cv::Point2f median_a(0, 0);
+  if (!vx.empty()) {
+    std::nth_element(vx.begin(), vx.begin() + vx.size() / 2, vx.end());
+    std::nth_element(vy.begin(), vy.begin() + vy.size() / 2, vy.end());
+    median_a = cv::Point2f(vx[vx.size() / 2], vy[vy.size() / 2]);
+  }
+
   next_tracks_.clear();
   check_idx_.clear();
   const int interval = options_.fb_check_interval;
@@ -138,7 +154,7 @@ void FeatureTracker::trackForward() {
     nt.age = t.age == std::numeric_limits<uint16_t>::max() ? t.age : static_cast<uint16_t>(t.age + 1);
     nt.prev_index = static_cast<int>(i);
     const bool suspicious = t.age == 0 || (t.id + frame_) % interval == 0 || err_[i] > err_gate ||
-                            dist2(p, guesses_[i]) > kAccelerationGate * kAccelerationGate;
+                            dist2(p, guesses_[i] + median_a) > kAccelerationGate * kAccelerationGate;
     if (suspicious) check_idx_.push_back(static_cast<int>(next_tracks_.size()));
     next_tracks_.push_back(nt);
   }

@@ -33,7 +33,7 @@ struct MotionAnalysisOptions {
   int lk_levels = 2;                 // pyramid levels above the base
   int lk_iterations = 8;             // LK iterations per level
   double fb_max_error = 0.5;         // analysis px; forward-backward check threshold
-  int fb_check_interval = 4;         // every track is forward-backward checked at least every N frames (1 = all, every frame)
+  int fb_check_interval = 8;         // every track is forward-backward checked at least every N frames (1 = all, every frame)
   // --- camera motion (CameraMotionEstimator) ---
   int ransac_hypotheses = 24;        // 2-point similarity hypotheses that seed the robust fit
   int irls_iterations = 10;          // IRLS rounds per camera model fit

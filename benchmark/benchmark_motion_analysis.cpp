@@ -1,0 +1,164 @@
+// Motion analysis speed at 640x480 and 1280x720 input (default options,
+// analysis at 320 px width), next to the bare OpenCV work it builds on:
+// downscale + cv::goodFeaturesToTrack + pyramidal LK, on the same frames and
+// with the same feature count, window, levels and iterations.
+//
+//   make -C _build_motion benchmarks
+//   taskset -c 0 _build_motion/benchmark/benchmark_motion_analysis
+//
+// OpenCV runs single-threaded here (cv::setNumThreads(1) in main) so the
+// figures are per core. Frames are rendered before timing: the scene
+// generator's "cards" preset (camera pan/roll/zoom, three moving cards), played
+// forward and backward so that consecutive frames are always neighbours.
+// BM_ModuleVsBaseline interleaves the two per frame and reports their ratio,
+// which is robust to load from other processes.
+#include "instant_motion_tracking/core/motion_analysis.h"
+#include "instant_motion_tracking/core/scene.h"
+
+#include <benchmark/benchmark.h>
+#include <opencv2/core/utility.hpp>
+#include <opencv2/imgproc.hpp>
+#include <opencv2/video/tracking.hpp>
+
+#include <ctime>
+#include <map>
+#include <stdexcept>
+#include <utility>
+#include <vector>
+
+namespace {
+
+constexpr int kFrames = 60;
+
+const std::vector<cv::Mat>& frames(int w, int h) {
+  static std::map<std::pair<int, int>, std::vector<cv::Mat>> cache;
+  auto& v = cache[{w, h}];
+  if (v.empty()) {
+    imt::SceneOptions o = *imt::SceneOptions::fromPreset("cards");
+    o.width = w;
+    o.height = h;
+    o.duration = kFrames / o.fps;
+    std::string err;
+    auto scene = imt::SceneGenerator::create(o, &err);
+    if (!scene) throw std::runtime_error("scene: " + err);
+    for (int i = 0; i < std::min(kFrames, scene->frameCount()); ++i) v.push_back(scene->renderFrame(i));
+  }
+  return v;
+}
+
+// k-th frame of the forward-backward (ping-pong) sequence.
+const cv::Mat& frameAt(const std::vector<cv::Mat>& v, int64_t k) {
+  const int64_t n = static_cast<int64_t>(v.size());
+  const int64_t period = 2 * n - 2;
+  const int64_t i = k % period;
+  return v[i < n ? i : period - i];
+}
+
+double threadCpuMs() {
+  timespec t;
+  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t);
+  return t.tv_sec * 1e3 + t.tv_nsec * 1e-6;
+}
+
+// Mean number of features the module tracks on these frames: the baseline
+// detects and tracks this many.
+int moduleFeatureCount(const std::vector<cv::Mat>& v) {
+  imt::MotionAnalyzer analyzer{imt::MotionAnalysisOptions()};
+  int64_t sum = 0;
+  for (size_t i = 0; i < v.size(); ++i) sum += analyzer.process(v[i], static_cast<double>(i)).features.size();
+  return static_cast<int>(sum / static_cast<int64_t>(v.size()));
+}
+
+// Bare OpenCV: downscale, one pyramid, forward LK of last frame's corners,
+// corners detected afresh over the whole frame.
+class Baseline {
+ public:
+  explicit Baseline(int corners) : corners_(corners) {}
+  void process(const cv::Mat& gray) {
+    const imt::MotionAnalysisOptions o;
+    const int aw = std::min(o.analysis_width, gray.cols);
+    cv::resize(gray, small_, cv::Size(aw, gray.rows * aw / gray.cols), 0, 0, cv::INTER_AREA);
+    const cv::Size win(o.lk_window, o.lk_window);
+    cv::buildOpticalFlowPyramid(small_, cur_, win, o.lk_levels, true);
+    if (!pts_.empty()) {
+      cv::calcOpticalFlowPyrLK(prev_, cur_, pts_, next_, status_, err_, win, o.lk_levels,
+                               cv::TermCriteria(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, o.lk_iterations, 0.01));
+    }
+    cv::goodFeaturesToTrack(small_, pts_, corners_, o.quality_level, o.min_distance);
+    std::swap(prev_, cur_);
+  }
+
+ private:
+  int corners_;
+  cv::Mat small_;
+  std::vector<cv::Mat> prev_, cur_;
+  std::vector<cv::Point2f> pts_, next_;
+  std::vector<uchar> status_;
+  std::vector<float> err_;
+};
+
+void BM_MotionAnalysis(benchmark::State& state) {
+  const auto& v = frames(static_cast<int>(state.range(0)), static_cast<int>(state.range(1)));
+  imt::MotionAnalyzer analyzer{imt::MotionAnalysisOptions()};
+  int64_t k = 0, features = 0;
+  for (; k < 10; ++k) analyzer.process(frameAt(v, k), k / 30.0);  // warm up: tracks established
+  for (auto _ : state) {
+    const imt::MotionData md = analyzer.process(frameAt(v, k), k / 30.0);
+    features += md.features.size();
+    benchmark::DoNotOptimize(md.camera.H(0, 0));
+    ++k;
+  }
+  state.counters["fps"] = benchmark::Counter(static_cast<double>(state.iterations()), benchmark::Counter::kIsRate);
+  state.counters["features"] = static_cast<double>(features) / std::max<int64_t>(1, state.iterations());
+}
+BENCHMARK(BM_MotionAnalysis)->Args({640, 480})->Args({1280, 720})->Unit(benchmark::kMillisecond);
+
+void BM_OpenCvBaseline(benchmark::State& state) {
+  const auto& v = frames(static_cast<int>(state.range(0)), static_cast<int>(state.range(1)));
+  const int corners = moduleFeatureCount(v);
+  Baseline baseline(corners);
+  int64_t k = 0;
+  for (; k < 2; ++k) baseline.process(frameAt(v, k));
+  for (auto _ : state) baseline.process(frameAt(v, k++));
+  state.counters["fps"] = benchmark::Counter(static_cast<double>(state.iterations()), benchmark::Counter::kIsRate);
+  state.counters["features"] = corners;
+}
+BENCHMARK(BM_OpenCvBaseline)->Args({640, 480})->Args({1280, 720})->Unit(benchmark::kMillisecond);
+
+// Both on each frame, timed by thread CPU time; the ratio is module / baseline.
+void BM_ModuleVsBaseline(benchmark::State& state) {
+  const auto& v = frames(static_cast<int>(state.range(0)), static_cast<int>(state.range(1)));
+  imt::MotionAnalyzer analyzer{imt::MotionAnalysisOptions()};
+  Baseline baseline(moduleFeatureCount(v));
+  int64_t k = 0;
+  for (; k < 10; ++k) analyzer.process(frameAt(v, k), k / 30.0), baseline.process(frameAt(v, k));
+  double module_ms = 0, baseline_ms = 0;
+  for (auto _ : state) {
+    const cv::Mat& f = frameAt(v, k);
+    const double t0 = threadCpuMs();
+    benchmark::DoNotOptimize(analyzer.process(f, k / 30.0).camera.H(0, 0));
+    const double t1 = threadCpuMs();
+    baseline.process(f);
+    baseline_ms += threadCpuMs() - t1;
+    module_ms += t1 - t0;
+    ++k;
+  }
+  const double n = static_cast<double>(std::max<int64_t>(1, state.iterations()));
+  state.counters["module_ms"] = module_ms / n;
+  state.counters["baseline_ms"] = baseline_ms / n;
+  state.counters["ratio"] = baseline_ms > 0 ? module_ms / baseline_ms : 0;
+}
+BENCHMARK(BM_ModuleVsBaseline)->Args({640, 480})->Args({1280, 720})->Unit(benchmark::kMillisecond);
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  cv::setNumThreads(1);  // one core: the figures the targets are stated in
+  benchmark::Initialize(&argc, argv);
+  if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;
+  frames(640, 480);  // render before any timing
+  frames(1280, 720);
+  benchmark::RunSpecifiedBenchmarks();
+  benchmark::Shutdown();
+  return 0;
+}

@@ -97,10 +97,15 @@ bool fitSimilarity(const Problem& pr, const std::vector<double>& w, Matrix3d* H)
 
 // h = [h00 h01 h02 h10 h11 h12 h20 h21], h22 = 1. The linear (algebraic)
 // equations are divided by the current denominator so that the weighted
-// residuals approximate geometric ones.
+// residuals approximate geometric ones. Each point contributes the rows
+//   r1 = [x y 1 0 0 0 -ux -uy] (rhs u),  r2 = [0 0 0 x y 1 -vx -vy] (rhs v);
+// the normal equations are assembled from 23 weighted moments instead of two
+// 8x8 outer products per point.
 bool fitHomography(const Problem& pr, const std::vector<double>& w, const Matrix3d& H0, Matrix3d* H) {
-  Eigen::Matrix<double, 8, 8> A = Eigen::Matrix<double, 8, 8>::Zero();
-  Eigen::Matrix<double, 8, 1> b = Eigen::Matrix<double, 8, 1>::Zero();
+  double s1 = 0, sx = 0, sy = 0, sxx = 0, sxy = 0, syy = 0;                 // of m m^T, m = (x, y, 1)
+  double u1 = 0, ux = 0, uy = 0, uxx = 0, uxy = 0, uyy = 0;                 // u m, u m [x y]
+  double v1 = 0, vx = 0, vy = 0, vxx = 0, vxy = 0, vyy = 0;                 // v m, v m [x y]
+  double rx = 0, ry = 0, rxx = 0, rxy = 0, ryy = 0;                         // (u^2 + v^2) [x y] ...
   int used = 0;
   for (size_t i = 0; i < pr.size(); ++i) {
     if (w[i] <= 0) continue;
@@ -108,13 +113,29 @@ bool fitHomography(const Problem& pr, const std::vector<double>& w, const Matrix
     const double x = pr.p[i].x(), y = pr.p[i].y(), u = pr.q[i].x(), v = pr.q[i].y();
     const double d = H0(2, 0) * x + H0(2, 1) * y + 1.0;
     const double wi = w[i] / std::max(1e-6, d * d);
-    Eigen::Matrix<double, 8, 1> r1, r2;
-    r1 << x, y, 1, 0, 0, 0, -u * x, -u * y;
-    r2 << 0, 0, 0, x, y, 1, -v * x, -v * y;
-    A.noalias() += wi * (r1 * r1.transpose() + r2 * r2.transpose());
-    b.noalias() += wi * (r1 * u + r2 * v);
+    const double wx = wi * x, wy = wi * y, wxx = wx * x, wxy = wx * y, wyy = wy * y;
+    s1 += wi, sx += wx, sy += wy, sxx += wxx, sxy += wxy, syy += wyy;
+    u1 += wi * u, ux += wx * u, uy += wy * u, uxx += wxx * u, uxy += wxy * u, uyy += wyy * u;
+    v1 += wi * v, vx += wx * v, vy += wy * v, vxx += wxx * v, vxy += wxy * v, vyy += wyy * v;
+    const double r2 = u * u + v * v;
+    rx += wx * r2, ry += wy * r2, rxx += wxx * r2, rxy += wxy * r2, ryy += wyy * r2;
   }
   if (used < 4) return false;
+  Eigen::Matrix<double, 8, 8> A = Eigen::Matrix<double, 8, 8>::Zero();
+  Eigen::Matrix<double, 8, 1> b;
+  Eigen::Matrix3d M;
+  M << sxx, sxy, sx, sxy, syy, sy, sx, sy, s1;
+  A.block<3, 3>(0, 0) = M;
+  A.block<3, 3>(3, 3) = M;
+  Eigen::Matrix<double, 3, 2> Pu, Pv;
+  Pu << -uxx, -uxy, -uxy, -uyy, -ux, -uy;
+  Pv << -vxx, -vxy, -vxy, -vyy, -vx, -vy;
+  A.block<3, 2>(0, 6) = Pu;
+  A.block<3, 2>(3, 6) = Pv;
+  A.block<2, 3>(6, 0) = Pu.transpose();
+  A.block<2, 3>(6, 3) = Pv.transpose();
+  A(6, 6) = rxx, A(6, 7) = A(7, 6) = rxy, A(7, 7) = ryy;
+  b << ux, uy, u1, vx, vy, v1, -rx, -ry;
   Eigen::LDLT<Eigen::Matrix<double, 8, 8>> ldlt(A);
   if (ldlt.info() != Eigen::Success || ldlt.vectorD().minCoeff() <= 1e-12 * std::max(1.0, A.trace())) return false;
   const Eigen::Matrix<double, 8, 1> h = ldlt.solve(b);
@@ -131,6 +152,7 @@ bool irls(MotionModel model, const Problem& pr, double thr, int iterations, cons
   Matrix3d cur = seed;
   bool ok = false;
   std::vector<double> inl;
+  double adaptive = thr;
   for (int k = 0; k < iterations; ++k) {
     // Annealed cut-off: wide at first so that a rough seed does not throw
     // away true inliers, then the inlier threshold, then (from the fourth
@@ -138,15 +160,16 @@ bool irls(MotionModel model, const Problem& pr, double thr, int iterations, cons
     // tracking noise is ~0.1 px while slowly moving objects sit at 0.5-2 px,
     // well inside the inlier threshold, and would otherwise bend the fit.
     double c = thr * std::max(1.0, 3.0 - k);
-    if (k >= 3) {
+    if (k == 3 || k == 6) {  // (re-)estimate the noise scale from the inliers
       inl.clear();
       for (double v : *r)
         if (v < thr) inl.push_back(v);
       if (inl.size() >= 4) {
         std::nth_element(inl.begin(), inl.begin() + inl.size() / 2, inl.end());
-        c = std::clamp(3.0 * inl[inl.size() / 2], 0.25 * thr, thr);
+        adaptive = std::clamp(3.0 * inl[inl.size() / 2], 0.25 * thr, thr);
       }
     }
+    if (k >= 3) c = adaptive;
     for (size_t i = 0; i < pr.size(); ++i) w[i] = pr.prior[i] * tukey((*r)[i], c);
     Matrix3d next;
     bool solved = false;

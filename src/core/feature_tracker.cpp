@@ -197,9 +197,12 @@ void FeatureTracker::pruneCrowdedCells() {
   // goes, and no grid cell keeps more than twice its share.
   const int cells = options_.grid_cols * options_.grid_rows;
   const int share = (options_.max_features + cells - 1) / cells;
-  std::vector<std::vector<int>> members(cells);
+  std::vector<std::vector<int>>& members = cell_members_;
+  members.resize(cells);
+  for (std::vector<int>& m : members) m.clear();
   for (size_t i = 0; i < tracks_.size(); ++i) members[gridCell(tracks_[i].cur)].push_back(static_cast<int>(i));
-  std::vector<char> drop(tracks_.size(), 0);
+  std::vector<char>& drop = drop_;
+  drop.assign(tracks_.size(), 0);
   const float close2 = static_cast<float>(0.25 * options_.min_distance * options_.min_distance);
   const auto older = [&](int a, int b) { return tracks_[a].age > tracks_[b].age || (tracks_[a].age == tracks_[b].age && a < b); };
   for (int c = 0; c < cells; ++c) {

@@ -57,6 +57,7 @@ struct MotionAnalyzer::Impl {
   std::vector<int> moving;  // track indices with age >= 1, in prev_px/cur_px order
   std::vector<float> cell_bg_sum;
   std::vector<int> cell_bg_n;
+  Diagnostics diagnostics;
 };
 
 MotionAnalyzer::MotionAnalyzer(const MotionAnalysisOptions& options) : impl_(new Impl(options)) {}
@@ -67,11 +68,13 @@ MotionAnalyzer& MotionAnalyzer::operator=(MotionAnalyzer&&) noexcept = default;
 void MotionAnalyzer::reset() { impl_->resetTracks(); }
 const std::string& MotionAnalyzer::lastReset() const { return impl_->last_reset; }
 const MotionAnalysisOptions& MotionAnalyzer::options() const { return impl_->options; }
+const MotionAnalyzer::Diagnostics& MotionAnalyzer::diagnostics() const { return impl_->diagnostics; }
 
 MotionData MotionAnalyzer::process(const cv::Mat& gray, double stamp) {
   Impl& s = *impl_;
   const MotionAnalysisOptions& o = s.options;
   s.last_reset.clear();
+  s.diagnostics = Diagnostics();
   MotionData md;
   md.stamp = stamp;
   md.width = gray.cols;
@@ -140,8 +143,10 @@ MotionData MotionAnalyzer::process(const cv::Mat& gray, double stamp) {
     s.prior.push_back((1.f - lambda) + lambda * bg);
     s.moving.push_back(static_cast<int>(i));
   }
-  const CameraMotionEstimate est =
+  s.diagnostics.tracking = s.tracker.stats();
+  s.diagnostics.estimate =
       s.estimator.estimate(s.prev_px, s.cur_px, s.prior, gray.size(), s.has_H ? &s.last_H : nullptr);
+  const CameraMotionEstimate& est = s.diagnostics.estimate;
   md.camera = est.motion;
   const bool valid = est.motion.model != MotionModel::kInvalid;
   s.has_H = valid;

@@ -78,6 +78,8 @@ TEST(MotionAnalysisInput, UniformFrameHasNoFeaturesAndNoModel) {
     EXPECT_TRUE(md.features.empty());
     EXPECT_EQ(md.camera.model, MotionModel::kInvalid);
     EXPECT_TRUE(md.camera.H.isIdentity());
+    EXPECT_EQ(analyzer.diagnostics().estimate.fits[3].check, ModelCheck::kNotFitted);
+    EXPECT_EQ(analyzer.diagnostics().tracking.detected, 0);
   }
 }
 

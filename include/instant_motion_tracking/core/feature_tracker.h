@@ -85,6 +85,8 @@ class FeatureTracker {
   std::vector<float> err_;
   std::vector<int> check_idx_;
   std::vector<FeatureTrack> next_tracks_;
+  std::vector<std::vector<int>> cell_members_;
+  std::vector<char> drop_;
   cv::Mat eig_;
 };
 

@@ -69,15 +69,26 @@ int moduleFeatureCount(const std::vector<cv::Mat>& v) {
   return static_cast<int>(sum / static_cast<int64_t>(v.size()));
 }
 
-// Bare OpenCV: downscale, one pyramid, forward LK of last frame's corners,
-// corners detected afresh over the whole frame.
+// Bare OpenCV: downscale, one pyramid (with derivatives, as the module keeps),
+// forward LK of last frame's corners, corners detected afresh over the whole
+// frame. No verification, no camera model, no classification.
 class Baseline {
  public:
   explicit Baseline(int corners) : corners_(corners) {}
   void process(const cv::Mat& gray) {
     const imt::MotionAnalysisOptions o;
     const int aw = std::min(o.analysis_width, gray.cols);
-    cv::resize(gray, small_, cv::Size(aw, gray.rows * aw / gray.cols), 0, 0, cv::INTER_AREA);
+    const int ah = gray.rows * aw / gray.cols;
+    // The same downscale as the module (exact halvings, then the rest), so
+    // that the comparison is about features and tracking.
+    const cv::Mat* src = &gray;
+    int k = 0;
+    while (src->cols % 2 == 0 && src->rows % 2 == 0 && src->cols >= 2 * aw && src->rows >= 2 * ah) {
+      cv::resize(*src, halves_[k % 2], cv::Size(src->cols / 2, src->rows / 2), 0, 0, cv::INTER_AREA);
+      src = &halves_[k++ % 2];
+    }
+    if (src->cols != aw || src->rows != ah) cv::resize(*src, small_, cv::Size(aw, ah), 0, 0, cv::INTER_AREA);
+    else small_ = *src;
     const cv::Size win(o.lk_window, o.lk_window);
     cv::buildOpticalFlowPyramid(small_, cur_, win, o.lk_levels, true);
     if (!pts_.empty()) {
@@ -90,7 +101,7 @@ class Baseline {
 
  private:
   int corners_;
-  cv::Mat small_;
+  cv::Mat small_, halves_[2];
   std::vector<cv::Mat> prev_, cur_;
   std::vector<cv::Point2f> pts_, next_;
   std::vector<uchar> status_;

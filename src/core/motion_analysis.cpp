@@ -49,7 +49,7 @@ struct MotionAnalyzer::Impl {
   std::string last_reset;
   Eigen::Matrix3d last_H = Eigen::Matrix3d::Identity();
   bool has_H = false;
-  cv::Mat small;
+  cv::Mat small, halves[2];
   std::vector<FeatureState> state, next_state;
   // Scratch.
   std::vector<cv::Point2f> prev_px, cur_px;
@@ -117,8 +117,22 @@ MotionData MotionAnalyzer::process(const cv::Mat& gray, double stamp) {
                                             static_cast<int>(std::lround(gray.rows * double(aw) / gray.cols)));
   const cv::Mat* analysed = &gray;
   if (aw != gray.cols || ah != gray.rows) {
-    cv::resize(gray, s.small, cv::Size(aw, ah), 0, 0, cv::INTER_AREA);
-    analysed = &s.small;
+    // Exact halvings first: OpenCV's area resize is ~10x faster for a factor
+    // of exactly 2 than for a general factor (1280x720 -> 320x180: 0.09 ms
+    // for two halvings, 0.7 ms at once), and box filters compose, so the
+    // result and the pixel mapping below are the same.
+    const cv::Mat* src = &gray;
+    int k = 0;
+    while (src->cols % 2 == 0 && src->rows % 2 == 0 && src->cols >= 2 * aw && src->rows >= 2 * ah) {
+      cv::Mat& dst = s.halves[k++ % 2];
+      cv::resize(*src, dst, cv::Size(src->cols / 2, src->rows / 2), 0, 0, cv::INTER_AREA);
+      src = &dst;
+    }
+    if (src->cols != aw || src->rows != ah) {
+      cv::resize(*src, s.small, cv::Size(aw, ah), 0, 0, cv::INTER_AREA);
+      src = &s.small;
+    }
+    analysed = src;
   }
   // Analysis pixel (centre at integer x) -> full-resolution position in our
   // convention: pixel i of the analysis frame covers [i, i+1) * scale.

@@ -41,7 +41,8 @@ const std::vector<cv::Mat>& frames(int w, int h) {
     std::string err;
     auto scene = imt::SceneGenerator::create(o, &err);
     if (!scene) throw std::runtime_error("scene: " + err);
-    for (int i = 0; i < std::min(kFrames, scene->frameCount()); ++i) v.push_back(scene->renderFrame(i));
+    for (int i = 0; i < std::min(kFrames, scene->frameCount()); ++i)
+      v.push_back(scene->renderFrame(i));
   }
   return v;
 }
@@ -65,7 +66,8 @@ double threadCpuMs() {
 int moduleFeatureCount(const std::vector<cv::Mat>& v) {
   imt::MotionAnalyzer analyzer{imt::MotionAnalysisOptions()};
   int64_t sum = 0;
-  for (size_t i = 0; i < v.size(); ++i) sum += analyzer.process(v[i], static_cast<double>(i)).features.size();
+  for (size_t i = 0; i < v.size(); ++i)
+    sum += analyzer.process(v[i], static_cast<double>(i)).features.size();
   return static_cast<int>(sum / static_cast<int64_t>(v.size()));
 }
 
@@ -84,16 +86,20 @@ class Baseline {
     const cv::Mat* src = &gray;
     int k = 0;
     while (src->cols % 2 == 0 && src->rows % 2 == 0 && src->cols >= 2 * aw && src->rows >= 2 * ah) {
-      cv::resize(*src, halves_[k % 2], cv::Size(src->cols / 2, src->rows / 2), 0, 0, cv::INTER_AREA);
+      cv::resize(*src, halves_[k % 2], cv::Size(src->cols / 2, src->rows / 2), 0, 0,
+                 cv::INTER_AREA);
       src = &halves_[k++ % 2];
     }
-    if (src->cols != aw || src->rows != ah) cv::resize(*src, small_, cv::Size(aw, ah), 0, 0, cv::INTER_AREA);
-    else small_ = *src;
+    if (src->cols != aw || src->rows != ah)
+      cv::resize(*src, small_, cv::Size(aw, ah), 0, 0, cv::INTER_AREA);
+    else
+      small_ = *src;
     const cv::Size win(o.lk_window, o.lk_window);
     cv::buildOpticalFlowPyramid(small_, cur_, win, o.lk_levels, true);
     if (!pts_.empty()) {
-      cv::calcOpticalFlowPyrLK(prev_, cur_, pts_, next_, status_, err_, win, o.lk_levels,
-                               cv::TermCriteria(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, o.lk_iterations, 0.01));
+      cv::calcOpticalFlowPyrLK(
+          prev_, cur_, pts_, next_, status_, err_, win, o.lk_levels,
+          cv::TermCriteria(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, o.lk_iterations, 0.01));
     }
     cv::goodFeaturesToTrack(small_, pts_, corners_, o.quality_level, o.min_distance);
     std::swap(prev_, cur_);
@@ -119,8 +125,10 @@ void BM_MotionAnalysis(benchmark::State& state) {
     benchmark::DoNotOptimize(md.camera.H(0, 0));
     ++k;
   }
-  state.counters["fps"] = benchmark::Counter(static_cast<double>(state.iterations()), benchmark::Counter::kIsRate);
-  state.counters["features"] = static_cast<double>(features) / std::max<int64_t>(1, state.iterations());
+  state.counters["fps"] =
+      benchmark::Counter(static_cast<double>(state.iterations()), benchmark::Counter::kIsRate);
+  state.counters["features"] =
+      static_cast<double>(features) / std::max<int64_t>(1, state.iterations());
 }
 BENCHMARK(BM_MotionAnalysis)->Args({640, 480})->Args({1280, 720})->Unit(benchmark::kMillisecond);
 
@@ -131,7 +139,8 @@ void BM_OpenCvBaseline(benchmark::State& state) {
   int64_t k = 0;
   for (; k < 2; ++k) baseline.process(frameAt(v, k));
   for (auto _ : state) baseline.process(frameAt(v, k++));
-  state.counters["fps"] = benchmark::Counter(static_cast<double>(state.iterations()), benchmark::Counter::kIsRate);
+  state.counters["fps"] =
+      benchmark::Counter(static_cast<double>(state.iterations()), benchmark::Counter::kIsRate);
   state.counters["features"] = corners;
 }
 BENCHMARK(BM_OpenCvBaseline)->Args({640, 480})->Args({1280, 720})->Unit(benchmark::kMillisecond);

@@ -12,16 +12,26 @@ namespace imt {
 
 const char* modelCheckName(ModelCheck c) {
   switch (c) {
-    case ModelCheck::kOk: return "ok";
-    case ModelCheck::kNotFitted: return "not fitted";
-    case ModelCheck::kDegenerate: return "degenerate";
-    case ModelCheck::kTooFewInliers: return "too few inliers";
-    case ModelCheck::kLowInlierFraction: return "low inlier fraction";
-    case ModelCheck::kLowCoverage: return "low inlier coverage";
-    case ModelCheck::kScale: return "scale out of bounds";
-    case ModelCheck::kRotation: return "rotation out of bounds";
-    case ModelCheck::kPerspective: return "perspective out of bounds";
-    case ModelCheck::kTranslation: return "translation out of bounds";
+    case ModelCheck::kOk:
+      return "ok";
+    case ModelCheck::kNotFitted:
+      return "not fitted";
+    case ModelCheck::kDegenerate:
+      return "degenerate";
+    case ModelCheck::kTooFewInliers:
+      return "too few inliers";
+    case ModelCheck::kLowInlierFraction:
+      return "low inlier fraction";
+    case ModelCheck::kLowCoverage:
+      return "low inlier coverage";
+    case ModelCheck::kScale:
+      return "scale out of bounds";
+    case ModelCheck::kRotation:
+      return "rotation out of bounds";
+    case ModelCheck::kPerspective:
+      return "perspective out of bounds";
+    case ModelCheck::kTranslation:
+      return "translation out of bounds";
   }
   return "?";
 }
@@ -88,7 +98,9 @@ bool fitSimilarity(const Problem& pr, const std::vector<double>& w, Matrix3d* H)
   }
   if (used < 2) return false;
   Eigen::LDLT<Eigen::Matrix4d> ldlt(A);
-  if (ldlt.info() != Eigen::Success || ldlt.vectorD().minCoeff() <= 1e-12 * std::max(1.0, A.trace())) return false;
+  if (ldlt.info() != Eigen::Success ||
+      ldlt.vectorD().minCoeff() <= 1e-12 * std::max(1.0, A.trace()))
+    return false;
   const Eigen::Vector4d s = ldlt.solve(b);
   if (!s.allFinite()) return false;
   *H << s(0), -s(1), s(2), s(1), s(0), s(3), 0, 0, 1;
@@ -101,11 +113,12 @@ bool fitSimilarity(const Problem& pr, const std::vector<double>& w, Matrix3d* H)
 //   r1 = [x y 1 0 0 0 -ux -uy] (rhs u),  r2 = [0 0 0 x y 1 -vx -vy] (rhs v);
 // the normal equations are assembled from 23 weighted moments instead of two
 // 8x8 outer products per point.
-bool fitHomography(const Problem& pr, const std::vector<double>& w, const Matrix3d& H0, Matrix3d* H) {
-  double s1 = 0, sx = 0, sy = 0, sxx = 0, sxy = 0, syy = 0;                 // of m m^T, m = (x, y, 1)
-  double u1 = 0, ux = 0, uy = 0, uxx = 0, uxy = 0, uyy = 0;                 // u m, u m [x y]
-  double v1 = 0, vx = 0, vy = 0, vxx = 0, vxy = 0, vyy = 0;                 // v m, v m [x y]
-  double rx = 0, ry = 0, rxx = 0, rxy = 0, ryy = 0;                         // (u^2 + v^2) [x y] ...
+bool fitHomography(const Problem& pr, const std::vector<double>& w, const Matrix3d& H0,
+                   Matrix3d* H) {
+  double s1 = 0, sx = 0, sy = 0, sxx = 0, sxy = 0, syy = 0;  // of m m^T, m = (x, y, 1)
+  double u1 = 0, ux = 0, uy = 0, uxx = 0, uxy = 0, uyy = 0;  // u m, u m [x y]
+  double v1 = 0, vx = 0, vy = 0, vxx = 0, vxy = 0, vyy = 0;  // v m, v m [x y]
+  double rx = 0, ry = 0, rxx = 0, rxy = 0, ryy = 0;          // (u^2 + v^2) [x y] ...
   int used = 0;
   for (size_t i = 0; i < pr.size(); ++i) {
     if (w[i] <= 0) continue;
@@ -137,7 +150,9 @@ bool fitHomography(const Problem& pr, const std::vector<double>& w, const Matrix
   A(6, 6) = rxx, A(6, 7) = A(7, 6) = rxy, A(7, 7) = ryy;
   b << ux, uy, u1, vx, vy, v1, -rx, -ry;
   Eigen::LDLT<Eigen::Matrix<double, 8, 8>> ldlt(A);
-  if (ldlt.info() != Eigen::Success || ldlt.vectorD().minCoeff() <= 1e-12 * std::max(1.0, A.trace())) return false;
+  if (ldlt.info() != Eigen::Success ||
+      ldlt.vectorD().minCoeff() <= 1e-12 * std::max(1.0, A.trace()))
+    return false;
   const Eigen::Matrix<double, 8, 1> h = ldlt.solve(b);
   if (!h.allFinite()) return false;
   *H << h(0), h(1), h(2), h(3), h(4), h(5), h(6), h(7), 1;
@@ -174,10 +189,17 @@ bool irls(MotionModel model, const Problem& pr, double thr, int iterations, cons
     Matrix3d next;
     bool solved = false;
     switch (model) {
-      case MotionModel::kTranslation: solved = fitTranslation(pr, w, &next); break;
-      case MotionModel::kSimilarity: solved = fitSimilarity(pr, w, &next); break;
-      case MotionModel::kHomography: solved = fitHomography(pr, w, cur, &next); break;
-      case MotionModel::kInvalid: break;
+      case MotionModel::kTranslation:
+        solved = fitTranslation(pr, w, &next);
+        break;
+      case MotionModel::kSimilarity:
+        solved = fitSimilarity(pr, w, &next);
+        break;
+      case MotionModel::kHomography:
+        solved = fitHomography(pr, w, cur, &next);
+        break;
+      case MotionModel::kInvalid:
+        break;
     }
     if (!solved) break;
     ok = true;
@@ -212,7 +234,8 @@ Matrix3d seedModel(const Problem& pr, double thr, int hypotheses, const Matrix3d
   if (previous) consider(*previous);
   {
     std::vector<double> dx(n), dy(n);
-    for (size_t i = 0; i < n; ++i) dx[i] = pr.q[i].x() - pr.p[i].x(), dy[i] = pr.q[i].y() - pr.p[i].y();
+    for (size_t i = 0; i < n; ++i)
+      dx[i] = pr.q[i].x() - pr.p[i].x(), dy[i] = pr.q[i].y() - pr.p[i].y();
     std::nth_element(dx.begin(), dx.begin() + n / 2, dx.end());
     std::nth_element(dy.begin(), dy.begin() + n / 2, dy.end());
     Matrix3d T = Matrix3d::Identity();
@@ -240,7 +263,8 @@ Matrix3d seedModel(const Problem& pr, double thr, int hypotheses, const Matrix3d
   for (int h = 0, attempts = 0; h < hypotheses && attempts < 4 * hypotheses; ++attempts) {
     const size_t i = draw(), j = draw();
     const std::complex<double> p1(pr.p[i].x(), pr.p[i].y()), p2(pr.p[j].x(), pr.p[j].y());
-    if (std::abs(p1 - p2) < 0.1) continue;  // 5% of the diagonal: too close to fix rotation and scale
+    if (std::abs(p1 - p2) < 0.1)
+      continue;  // 5% of the diagonal: too close to fix rotation and scale
     ++h;
     const std::complex<double> q1(pr.q[i].x(), pr.q[i].y()), q2(pr.q[j].x(), pr.q[j].y());
     const std::complex<double> a = (q1 - q2) / (p1 - p2);
@@ -254,11 +278,13 @@ Matrix3d seedModel(const Problem& pr, double thr, int hypotheses, const Matrix3d
 
 }  // namespace
 
-CameraMotionEstimator::CameraMotionEstimator(const MotionAnalysisOptions& options) : options_(options) {}
+CameraMotionEstimator::CameraMotionEstimator(const MotionAnalysisOptions& options)
+    : options_(options) {}
 
 CameraMotionEstimate CameraMotionEstimator::estimate(const std::vector<cv::Point2f>& prev,
                                                      const std::vector<cv::Point2f>& cur,
-                                                     const std::vector<float>& prior, const cv::Size& frame,
+                                                     const std::vector<float>& prior,
+                                                     const cv::Size& frame,
                                                      const Eigen::Matrix3d* previous_H) const {
   CameraMotionEstimate out;
   const size_t n = std::min(prev.size(), cur.size());
@@ -285,8 +311,10 @@ CameraMotionEstimate CameraMotionEstimator::estimate(const std::vector<cv::Point
     pr.q.emplace_back(s * (cur[i].x - cx), s * (cur[i].y - cy));
     const double w = prior.size() == n ? static_cast<double>(prior[i]) : 1.0;
     pr.prior.push_back(std::isfinite(w) ? std::clamp(w, 1e-3, 1.0) : 1.0);
-    const int gx = std::clamp(static_cast<int>(cur[i].x * options_.grid_cols / frame.width), 0, options_.grid_cols - 1);
-    const int gy = std::clamp(static_cast<int>(cur[i].y * options_.grid_rows / frame.height), 0, options_.grid_rows - 1);
+    const int gx = std::clamp(static_cast<int>(cur[i].x * options_.grid_cols / frame.width), 0,
+                              options_.grid_cols - 1);
+    const int gy = std::clamp(static_cast<int>(cur[i].y * options_.grid_rows / frame.height), 0,
+                              options_.grid_rows - 1);
     cell.push_back(gy * options_.grid_cols + gx);
   }
   const size_t m = pr.size();
@@ -295,7 +323,8 @@ CameraMotionEstimate CameraMotionEstimator::estimate(const std::vector<cv::Point
   const double thr = options_.inlier_threshold * diag * s;  // normalised units
   Matrix3d prev_n;
   if (previous_H) prev_n = N * (*previous_H) * N_inv;
-  const Matrix3d seed = seedModel(pr, thr, options_.ransac_hypotheses, previous_H ? &prev_n : nullptr);
+  const Matrix3d seed =
+      seedModel(pr, thr, options_.ransac_hypotheses, previous_H ? &prev_n : nullptr);
   std::vector<double> r_seed;
   computeResiduals(pr, seed, &r_seed);
 
@@ -340,9 +369,11 @@ CameraMotionEstimate CameraMotionEstimator::estimate(const std::vector<cv::Point
     const Eigen::Matrix2d A = H.block<2, 2>(0, 0) / H(2, 2);
     const double rotation = std::atan2(A(1, 0) - A(0, 1), A(0, 0) + A(1, 1));
     const Eigen::Vector2d sv = Eigen::JacobiSVD<Eigen::Matrix2d>(A).singularValues();
-    const double perspective = 2.0 * std::max(std::abs(H(2, 0)), std::abs(H(2, 1))) / std::abs(H(2, 2));
-    const int min_inliers = k == 1 ? options_.min_inliers_translation
-                                   : (k == 2 ? options_.min_inliers_similarity : options_.min_inliers_homography);
+    const double perspective =
+        2.0 * std::max(std::abs(H(2, 0)), std::abs(H(2, 1))) / std::abs(H(2, 2));
+    const int min_inliers =
+        k == 1 ? options_.min_inliers_translation
+               : (k == 2 ? options_.min_inliers_similarity : options_.min_inliers_homography);
     fit.check = ModelCheck::kOk;
     if (fit.inliers < min_inliers) {
       fit.check = ModelCheck::kTooFewInliers;

@@ -43,10 +43,10 @@ void FeatureTracker::reset() {
 }
 
 int FeatureTracker::gridCell(const cv::Point2f& p) const {
-  const int cx = std::clamp(static_cast<int>(p.x * options_.grid_cols / std::max(1, size_.width)), 0,
-                            options_.grid_cols - 1);
-  const int cy = std::clamp(static_cast<int>(p.y * options_.grid_rows / std::max(1, size_.height)), 0,
-                            options_.grid_rows - 1);
+  const int cx = std::clamp(static_cast<int>(p.x * options_.grid_cols / std::max(1, size_.width)),
+                            0, options_.grid_cols - 1);
+  const int cy = std::clamp(static_cast<int>(p.y * options_.grid_rows / std::max(1, size_.height)),
+                            0, options_.grid_rows - 1);
   return cy * options_.grid_cols + cx;
 }
 
@@ -61,8 +61,9 @@ void FeatureTracker::track(const cv::Mat& image) {
   const cv::Size win(options_.lk_window, options_.lk_window);
   // Level 0 is copied (tryReuseInputImage = false): the caller may reuse its
   // buffer for the next frame while this pyramid serves as the previous one.
-  levels_ = cv::buildOpticalFlowPyramid(image, cur_pyr_, win, options_.lk_levels, /*withDerivatives=*/true,
-                                        cv::BORDER_REFLECT_101, cv::BORDER_CONSTANT,
+  levels_ = cv::buildOpticalFlowPyramid(image, cur_pyr_, win, options_.lk_levels,
+                                        /*withDerivatives=*/true, cv::BORDER_REFLECT_101,
+                                        cv::BORDER_CONSTANT,
                                         /*tryReuseInputImage=*/false);
   if (!prev_pyr_.empty() && !tracks_.empty()) {
     trackForward();
@@ -101,13 +102,15 @@ void FeatureTracker::trackForward() {
     const FeatureTrack& t = tracks_[i];
     pts_prev_[i] = t.cur;
     const cv::Point2f v = t.age > 0 ? t.cur - t.prev : median_v;
-    pts_cur_[i] = cv::Point2f(std::clamp(t.cur.x + v.x, 0.f, max_x), std::clamp(t.cur.y + v.y, 0.f, max_y));
+    pts_cur_[i] =
+        cv::Point2f(std::clamp(t.cur.x + v.x, 0.f, max_x), std::clamp(t.cur.y + v.y, 0.f, max_y));
   }
   guesses_ = pts_cur_;
   const cv::Size win(options_.lk_window, options_.lk_window);
-  const cv::TermCriteria crit(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, options_.lk_iterations, kLkEpsilon);
-  cv::calcOpticalFlowPyrLK(prev_pyr_, cur_pyr_, pts_prev_, pts_cur_, status_, err_, win, levels_, crit,
-                           cv::OPTFLOW_USE_INITIAL_FLOW);
+  const cv::TermCriteria crit(cv::TermCriteria::COUNT | cv::TermCriteria::EPS,
+                              options_.lk_iterations, kLkEpsilon);
+  cv::calcOpticalFlowPyrLK(prev_pyr_, cur_pyr_, pts_prev_, pts_cur_, status_, err_, win, levels_,
+                           crit, cv::OPTFLOW_USE_INITIAL_FLOW);
 
   // Median patch error of the successful tracks, for the suspicion gate.
   std::vector<float> errs;
@@ -151,10 +154,12 @@ void FeatureTracker::trackForward() {
     nt.id = t.id;
     nt.prev = t.cur;
     nt.cur = p;
-    nt.age = t.age == std::numeric_limits<uint16_t>::max() ? t.age : static_cast<uint16_t>(t.age + 1);
+    nt.age =
+        t.age == std::numeric_limits<uint16_t>::max() ? t.age : static_cast<uint16_t>(t.age + 1);
     nt.prev_index = static_cast<int>(i);
-    const bool suspicious = t.age == 0 || (t.id + frame_) % interval == 0 || err_[i] > err_gate ||
-                            dist2(p, guesses_[i] + median_a) > kAccelerationGate * kAccelerationGate;
+    const bool suspicious =
+        t.age == 0 || (t.id + frame_) % interval == 0 || err_[i] > err_gate ||
+        dist2(p, guesses_[i] + median_a) > kAccelerationGate * kAccelerationGate;
     if (suspicious) check_idx_.push_back(static_cast<int>(next_tracks_.size()));
     next_tracks_.push_back(nt);
   }
@@ -169,13 +174,15 @@ void FeatureTracker::verifyBackward() {
     pts_back_.resize(m);
     for (size_t k = 0; k < m; ++k) pts_cur_[k] = tracks_[check_idx_[k]].cur;
     const cv::Size win(options_.lk_window, options_.lk_window);
-    const cv::TermCriteria crit(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, options_.lk_iterations,
-                                kLkEpsilon);
-    cv::calcOpticalFlowPyrLK(cur_pyr_, prev_pyr_, pts_cur_, pts_back_, status_, err_, win, levels_, crit, 0);
+    const cv::TermCriteria crit(cv::TermCriteria::COUNT | cv::TermCriteria::EPS,
+                                options_.lk_iterations, kLkEpsilon);
+    cv::calcOpticalFlowPyrLK(cur_pyr_, prev_pyr_, pts_cur_, pts_back_, status_, err_, win, levels_,
+                             crit, 0);
     const float max_err2 = static_cast<float>(options_.fb_max_error * options_.fb_max_error);
     for (size_t k = 0; k < m; ++k) {
       FeatureTrack& t = tracks_[check_idx_[k]];
-      if (!status_[k] || !(dist2(pts_back_[k], t.prev) <= max_err2)) t.age = 0, t.prev_index = -2;  // mark lost
+      if (!status_[k] || !(dist2(pts_back_[k], t.prev) <= max_err2))
+        t.age = 0, t.prev_index = -2;  // mark lost
     }
     size_t w = 0;
     for (size_t i = 0; i < tracks_.size(); ++i) {
@@ -200,11 +207,14 @@ void FeatureTracker::pruneCrowdedCells() {
   std::vector<std::vector<int>>& members = cell_members_;
   members.resize(cells);
   for (std::vector<int>& m : members) m.clear();
-  for (size_t i = 0; i < tracks_.size(); ++i) members[gridCell(tracks_[i].cur)].push_back(static_cast<int>(i));
+  for (size_t i = 0; i < tracks_.size(); ++i)
+    members[gridCell(tracks_[i].cur)].push_back(static_cast<int>(i));
   std::vector<char>& drop = drop_;
   drop.assign(tracks_.size(), 0);
   const float close2 = static_cast<float>(0.25 * options_.min_distance * options_.min_distance);
-  const auto older = [&](int a, int b) { return tracks_[a].age > tracks_[b].age || (tracks_[a].age == tracks_[b].age && a < b); };
+  const auto older = [&](int a, int b) {
+    return tracks_[a].age > tracks_[b].age || (tracks_[a].age == tracks_[b].age && a < b);
+  };
   for (int c = 0; c < cells; ++c) {
     std::vector<int>& mem = members[c];
     std::sort(mem.begin(), mem.end(), older);
@@ -266,18 +276,21 @@ void FeatureTracker::detect(const cv::Mat& image) {
       continue;
     }
     const int gx = c % options_.grid_cols, gy = c / options_.grid_cols;
-    const cv::Rect cell(gx * size_.width / options_.grid_cols, gy * size_.height / options_.grid_rows,
-                        (gx + 1) * size_.width / options_.grid_cols - gx * size_.width / options_.grid_cols,
-                        (gy + 1) * size_.height / options_.grid_rows - gy * size_.height / options_.grid_rows);
+    const cv::Rect cell(
+        gx * size_.width / options_.grid_cols, gy * size_.height / options_.grid_rows,
+        (gx + 1) * size_.width / options_.grid_cols - gx * size_.width / options_.grid_cols,
+        (gy + 1) * size_.height / options_.grid_rows - gy * size_.height / options_.grid_rows);
     const cv::Rect roi = cell & inner;
     if (roi.width < 1 || roi.height < 1) continue;
     // One pixel of context around the cell so that its border pixels can be
     // tested as local maxima.
-    const cv::Rect ext = cv::Rect(roi.x - 1, roi.y - 1, roi.width + 2, roi.height + 2) & cv::Rect(0, 0, size_.width, size_.height);
+    const cv::Rect ext = cv::Rect(roi.x - 1, roi.y - 1, roi.width + 2, roi.height + 2) &
+                         cv::Rect(0, 0, size_.width, size_.height);
     cv::cornerMinEigenVal(image(ext), eig_, 3, 3);
     double cell_max = 0;
     cv::minMaxLoc(eig_, nullptr, &cell_max);
-    const float thresh = static_cast<float>(std::max(options_.min_eigenvalue, options_.quality_level * cell_max));
+    const float thresh =
+        static_cast<float>(std::max(options_.min_eigenvalue, options_.quality_level * cell_max));
     cand.clear();
     for (int y = roi.y; y < roi.y + roi.height; ++y) {
       const int ey = y - ext.y;
@@ -289,8 +302,8 @@ void FeatureTracker::detect(const cv::Mat& image) {
         const int ex = x - ext.x;
         if (ex < 1 || ex >= eig_.cols - 1) continue;
         const float v = r1[ex];
-        if (v < thresh || v < r1[ex - 1] || v < r1[ex + 1] || v < r0[ex - 1] || v < r0[ex] || v < r0[ex + 1] ||
-            v < r2[ex - 1] || v < r2[ex] || v < r2[ex + 1])
+        if (v < thresh || v < r1[ex - 1] || v < r1[ex + 1] || v < r0[ex - 1] || v < r0[ex] ||
+            v < r0[ex + 1] || v < r2[ex - 1] || v < r2[ex] || v < r2[ex + 1])
           continue;
         cand.push_back({v, cv::Point2f(static_cast<float>(x), static_cast<float>(y))});
       }
@@ -299,11 +312,14 @@ void FeatureTracker::detect(const cv::Mat& image) {
       cell_backoff_[c] = kEmptyCellBackoff;
       continue;
     }
-    std::sort(cand.begin(), cand.end(), [](const Candidate& a, const Candidate& b) { return a.response > b.response; });
-    const cv::Rect reach(roi.x - min_d, roi.y - min_d, roi.width + 2 * min_d, roi.height + 2 * min_d);
+    std::sort(cand.begin(), cand.end(),
+              [](const Candidate& a, const Candidate& b) { return a.response > b.response; });
+    const cv::Rect reach(roi.x - min_d, roi.y - min_d, roi.width + 2 * min_d,
+                         roi.height + 2 * min_d);
     near.clear();
     for (const FeatureTrack& t : tracks_)
-      if (reach.contains(cv::Point(static_cast<int>(t.cur.x), static_cast<int>(t.cur.y)))) near.push_back(t.cur);
+      if (reach.contains(cv::Point(static_cast<int>(t.cur.x), static_cast<int>(t.cur.y))))
+        near.push_back(t.cur);
     const size_t existing = near.size();
     int want = share - count[c];
     for (const Candidate& k : cand) {

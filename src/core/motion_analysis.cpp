@@ -68,7 +68,9 @@ MotionAnalyzer& MotionAnalyzer::operator=(MotionAnalyzer&&) noexcept = default;
 void MotionAnalyzer::reset() { impl_->resetTracks(); }
 const std::string& MotionAnalyzer::lastReset() const { return impl_->last_reset; }
 const MotionAnalysisOptions& MotionAnalyzer::options() const { return impl_->options; }
-const MotionAnalyzer::Diagnostics& MotionAnalyzer::diagnostics() const { return impl_->diagnostics; }
+const MotionAnalyzer::Diagnostics& MotionAnalyzer::diagnostics() const {
+  return impl_->diagnostics;
+}
 
 MotionData MotionAnalyzer::process(const cv::Mat& gray, double stamp) {
   Impl& s = *impl_;
@@ -98,8 +100,8 @@ MotionData MotionAnalyzer::process(const cv::Mat& gray, double stamp) {
   }
   if (s.has_frame && gray.size() != s.size) {
     std::ostringstream os;
-    os << "frame size changed (" << s.size.width << "x" << s.size.height << " -> " << gray.cols << "x"
-       << gray.rows << ")";
+    os << "frame size changed (" << s.size.width << "x" << s.size.height << " -> " << gray.cols
+       << "x" << gray.rows << ")";
     s.last_reset = os.str();
     s.resetTracks();
   } else if (s.has_frame && !(stamp > s.last_stamp)) {
@@ -111,10 +113,12 @@ MotionData MotionAnalyzer::process(const cv::Mat& gray, double stamp) {
   s.has_frame = true;
 
   // --- analysis resolution (never upscaled) ---
-  const int aw = (o.analysis_width > 0 && o.analysis_width < gray.cols) ? o.analysis_width : gray.cols;
-  const int ah = aw == gray.cols ? gray.rows
-                                 : std::max(std::min(gray.rows, kMinSide),
-                                            static_cast<int>(std::lround(gray.rows * double(aw) / gray.cols)));
+  const int aw =
+      (o.analysis_width > 0 && o.analysis_width < gray.cols) ? o.analysis_width : gray.cols;
+  const int ah = aw == gray.cols
+                     ? gray.rows
+                     : std::max(std::min(gray.rows, kMinSide),
+                                static_cast<int>(std::lround(gray.rows * double(aw) / gray.cols)));
   const cv::Mat* analysed = &gray;
   if (aw != gray.cols || ah != gray.rows) {
     // Exact halvings first: OpenCV's area resize is ~10x faster for a factor
@@ -137,7 +141,9 @@ MotionData MotionAnalyzer::process(const cv::Mat& gray, double stamp) {
   // Analysis pixel (centre at integer x) -> full-resolution position in our
   // convention: pixel i of the analysis frame covers [i, i+1) * scale.
   const float sx = static_cast<float>(gray.cols) / aw, sy = static_cast<float>(gray.rows) / ah;
-  auto toFull = [sx, sy](const cv::Point2f& p) { return cv::Point2f((p.x + 0.5f) * sx, (p.y + 0.5f) * sy); };
+  auto toFull = [sx, sy](const cv::Point2f& p) {
+    return cv::Point2f((p.x + 0.5f) * sx, (p.y + 0.5f) * sy);
+  };
 
   s.tracker.track(*analysed);
   const std::vector<FeatureTrack>& tracks = s.tracker.tracks();
@@ -153,13 +159,14 @@ MotionData MotionAnalyzer::process(const cv::Mat& gray, double stamp) {
     if (t.age == 0 || t.prev_index < 0) continue;
     s.prev_px.push_back(toFull(t.prev));
     s.cur_px.push_back(toFull(t.cur));
-    const float bg = t.prev_index < static_cast<int>(s.state.size()) ? s.state[t.prev_index].bg_weight : 1.f;
+    const float bg =
+        t.prev_index < static_cast<int>(s.state.size()) ? s.state[t.prev_index].bg_weight : 1.f;
     s.prior.push_back((1.f - lambda) + lambda * bg);
     s.moving.push_back(static_cast<int>(i));
   }
   s.diagnostics.tracking = s.tracker.stats();
-  s.diagnostics.estimate =
-      s.estimator.estimate(s.prev_px, s.cur_px, s.prior, gray.size(), s.has_H ? &s.last_H : nullptr);
+  s.diagnostics.estimate = s.estimator.estimate(s.prev_px, s.cur_px, s.prior, gray.size(),
+                                                s.has_H ? &s.last_H : nullptr);
   const CameraMotionEstimate& est = s.diagnostics.estimate;
   md.camera = est.motion;
   const bool valid = est.motion.model != MotionModel::kInvalid;
@@ -196,7 +203,8 @@ MotionData MotionAnalyzer::process(const cv::Mat& gray, double stamp) {
       // Accumulated residual (decaying sum): a slowly but steadily moving
       // object builds up r / (1 - decay), while zero-mean tracking noise
       // grows only by 1 / sqrt(1 - decay^2).
-      const FeatureState* ps = t.prev_index < static_cast<int>(s.state.size()) ? &s.state[t.prev_index] : nullptr;
+      const FeatureState* ps =
+          t.prev_index < static_cast<int>(s.state.size()) ? &s.state[t.prev_index] : nullptr;
       if (ps && ps->has_residual) {
         ns.rx = decay * ps->rx + f.dx;
         ns.ry = decay * ps->ry + f.dy;

@@ -93,7 +93,9 @@ SceneRun runScene(const std::string& preset, int first, int frames) {
         for (int gy = 0; gy < 12; ++gy) {
           for (int gx = 0; gx < 16; ++gx) {
             const Eigen::Vector2d p((gx + 0.5) * md.width / 16, (gy + 0.5) * md.height / 12);
-            if (prev_label.at<uint8_t>(static_cast<int>(p.y()), static_cast<int>(p.x())) != kLabelBackground) continue;
+            if (prev_label.at<uint8_t>(static_cast<int>(p.y()), static_cast<int>(p.x())) !=
+                kLabelBackground)
+              continue;
             run.transfer_errors.push_back(
                 (transfer(md.camera.H, p) - transfer(*gt.background_homography, p)).norm());
           }
@@ -101,8 +103,8 @@ SceneRun runScene(const std::string& preset, int first, int frames) {
       }
       for (const FeatureMotion& f : md.features) {
         if (f.age == 0) continue;  // no motion measured yet
-        const cv::Rect r = cv::Rect(static_cast<int>(f.x) - band, static_cast<int>(f.y) - band, 2 * band + 1,
-                                    2 * band + 1) &
+        const cv::Rect r = cv::Rect(static_cast<int>(f.x) - band, static_cast<int>(f.y) - band,
+                                    2 * band + 1, 2 * band + 1) &
                            cv::Rect(0, 0, label.cols, label.rows);
         double lo, hi;
         cv::minMaxLoc(label(r), &lo, &hi);
@@ -140,17 +142,18 @@ TEST_P(MotionAnalysisScene, CameraMotionMatchesGroundTruth) {
   const SceneCase& c = GetParam();
   const SceneRun run = runScene(c.preset, c.first, c.frames);
   ASSERT_GT(run.frames, 0);
-  EXPECT_EQ(run.models[static_cast<int>(c.model)], run.frames) << "models T/S/H/I: " << run.models[1] << "/"
-                                                               << run.models[2] << "/" << run.models[3] << "/"
-                                                               << run.models[0];
+  EXPECT_EQ(run.models[static_cast<int>(c.model)], run.frames)
+      << "models T/S/H/I: " << run.models[1] << "/" << run.models[2] << "/" << run.models[3] << "/"
+      << run.models[0];
   ASSERT_GT(run.transfer_errors.size(), 100u);
-  const double median = percentile(run.transfer_errors, 0.5), p95 = percentile(run.transfer_errors, 0.95);
+  const double median = percentile(run.transfer_errors, 0.5),
+               p95 = percentile(run.transfer_errors, 0.95);
   EXPECT_LE(median, 0.3);
   EXPECT_LE(p95, 1.0);
   RecordProperty("transfer_median_px", std::to_string(median));
   RecordProperty("transfer_p95_px", std::to_string(p95));
-  std::printf("[ %s ] transfer error median %.3f px, p95 %.3f px over %zu points\n", c.preset.c_str(), median, p95,
-              run.transfer_errors.size());
+  std::printf("[ %s ] transfer error median %.3f px, p95 %.3f px over %zu points\n",
+              c.preset.c_str(), median, p95, run.transfer_errors.size());
   if (run.bg_features > 0) {
     // Background features flagged foreground: <= 5% (issue 3). Measured
     // 0.0-0.1% on the wall-only scenes.
@@ -164,7 +167,9 @@ INSTANTIATE_TEST_SUITE_P(MotionAnalysisPresets, MotionAnalysisScene,
                                            SceneCase{"planar", 0, 60, MotionModel::kHomography},
                                            SceneCase{"still", 0, 30, MotionModel::kHomography},
                                            SceneCase{"cards", 0, 90, MotionModel::kHomography}),
-                         [](const ::testing::TestParamInfo<SceneCase>& info) { return info.param.preset; });
+                         [](const ::testing::TestParamInfo<SceneCase>& info) {
+                           return info.param.preset;
+                         });
 
 // Cards moving over the wall (up to ~30% of the frame): >= 95% of the card
 // features flagged foreground and <= 5% of the background features (issue 3).
@@ -178,8 +183,9 @@ TEST(MotionAnalysisForeground, CardsAreForegroundWallIsBackground) {
   ASSERT_GT(run.bg_features, 2000);
   const double card_rate = static_cast<double>(run.card_flagged) / run.card_features;
   const double bg_rate = static_cast<double>(run.bg_flagged) / run.bg_features;
-  std::printf("[ cards ] foreground: %.1f%% of %d card features, %.2f%% of %d background features\n",
-              100 * card_rate, run.card_features, 100 * bg_rate, run.bg_features);
+  std::printf(
+      "[ cards ] foreground: %.1f%% of %d card features, %.2f%% of %d background features\n",
+      100 * card_rate, run.card_features, 100 * bg_rate, run.bg_features);
   EXPECT_GE(card_rate, 0.95);
   EXPECT_LE(bg_rate, 0.05);
 }

@@ -17,15 +17,19 @@ namespace {
 
 const cv::Size kFrame(640, 480);
 
-Eigen::Vector2d apply(const Eigen::Matrix3d& H, const Eigen::Vector2d& p) { return (H * p.homogeneous()).hnormalized(); }
+Eigen::Vector2d apply(const Eigen::Matrix3d& H, const Eigen::Vector2d& p) {
+  return (H * p.homogeneous()).hnormalized();
+}
 
 // Similarity about the frame centre followed by perspective terms (1/px).
-Eigen::Matrix3d model(double tx, double ty, double rot, double scale, double h20 = 0, double h21 = 0) {
+Eigen::Matrix3d model(double tx, double ty, double rot, double scale, double h20 = 0,
+                      double h21 = 0) {
   Eigen::Matrix3d C = Eigen::Matrix3d::Identity(), Ci = Eigen::Matrix3d::Identity();
   C(0, 2) = kFrame.width / 2.0, C(1, 2) = kFrame.height / 2.0;
   Ci(0, 2) = -C(0, 2), Ci(1, 2) = -C(1, 2);
   Eigen::Matrix3d S;
-  S << scale * std::cos(rot), -scale * std::sin(rot), tx, scale * std::sin(rot), scale * std::cos(rot), ty, 0, 0, 1;
+  S << scale * std::cos(rot), -scale * std::sin(rot), tx, scale * std::sin(rot),
+      scale * std::cos(rot), ty, 0, 0, 1;
   Eigen::Matrix3d P = Eigen::Matrix3d::Identity();
   P(2, 0) = h20, P(2, 1) = h21;
   Eigen::Matrix3d H = C * P * S * Ci;
@@ -50,9 +54,11 @@ struct Correspondences {
 
 // n points uniform in `area`, moved by H plus Gaussian noise; a fraction
 // `outliers` of them moves randomly instead (up to 20 px).
-Correspondences make(const Eigen::Matrix3d& H, int n, cv::Rect2d area, double noise, double outliers, unsigned seed) {
+Correspondences make(const Eigen::Matrix3d& H, int n, cv::Rect2d area, double noise,
+                     double outliers, unsigned seed) {
   std::mt19937 rng(seed);
-  std::uniform_real_distribution<double> ux(area.x, area.x + area.width), uy(area.y, area.y + area.height);
+  std::uniform_real_distribution<double> ux(area.x, area.x + area.width),
+      uy(area.y, area.y + area.height);
   std::uniform_real_distribution<double> u01(0, 1), jump(-20, 20);
   std::normal_distribution<double> nz(0, noise);
   Correspondences c;
@@ -112,34 +118,35 @@ const cv::Rect2d kCorner(20, 20, 140, 110);  // 2 x 2 of the 8 x 6 grid cells: c
 // where that motion is of their class.
 INSTANTIATE_TEST_SUITE_P(
     CameraMotionCases, CameraMotionModelClass,
-    ::testing::Values(
-        ModelCase{"perspective_spread", model(6, -3, 0.02, 1.01, 1.5e-4, -1e-4), 200, kWhole, 0.0,
-                  MotionModel::kHomography, ModelCheck::kOk, 0.15},
-        ModelCase{"perspective_30pct_outliers", model(-4, 2, -0.03, 0.99, -1e-4, 1e-4), 250, kWhole, 0.3,
-                  MotionModel::kHomography, ModelCheck::kOk, 0.15},
-        ModelCase{"similarity_clustered", model(3, 1, 0.05, 1.02), 200, kCorner, 0.0, MotionModel::kSimilarity,
-                  ModelCheck::kLowCoverage, 0.5},
-        ModelCase{"few_features_translation", model(5, -2, 0, 1), 20, kWhole, 0.0, MotionModel::kTranslation,
-                  ModelCheck::kTooFewInliers, 0.15},
-        ModelCase{"two_features_invalid", model(5, -2, 0, 1), 2, kWhole, 0.0, MotionModel::kInvalid,
-                  ModelCheck::kNotFitted, 0},
-        // Beyond the rotation or scale bounds nothing holds: a translation
-        // explains only the few features near the centre.
-        ModelCase{"rotation_out_of_bounds", model(0, 0, 0.4, 1), 200, kWhole, 0.0, MotionModel::kInvalid,
-                  ModelCheck::kRotation, 0},
-        ModelCase{"scale_out_of_bounds", model(0, 0, 0, 1.35), 200, kWhole, 0.0, MotionModel::kInvalid,
-                  ModelCheck::kScale, 0},
-        // Mild perspective (1.6e-2 in diagonal units) against a bound
-        // tightened to 1e-2: the homography is refused, the similarity (2 px
-        // off at the far corners, inside the inlier threshold) holds.
-        ModelCase{"perspective_out_of_bounds", model(0, 0, 0, 1, 2e-5, 0), 200, kWhole, 0.0,
-                  MotionModel::kSimilarity, ModelCheck::kPerspective, 0, 0.01},
-        ModelCase{"translation_out_of_bounds", model(200, 0, 0, 1), 200, kWhole, 0.0, MotionModel::kInvalid,
-                  ModelCheck::kTranslation, 0},
-        // 85% random motion: ~90 inliers, enough in number for every model
-        // but too small a fraction for a similarity or homography.
-        ModelCase{"mostly_outliers_translation", model(2, 2, 0, 1), 600, kWhole, 0.85,
-                  MotionModel::kTranslation, ModelCheck::kLowInlierFraction, 0.15}),
+    ::testing::Values(ModelCase{"perspective_spread", model(6, -3, 0.02, 1.01, 1.5e-4, -1e-4), 200,
+                                kWhole, 0.0, MotionModel::kHomography, ModelCheck::kOk, 0.15},
+                      ModelCase{"perspective_30pct_outliers",
+                                model(-4, 2, -0.03, 0.99, -1e-4, 1e-4), 250, kWhole, 0.3,
+                                MotionModel::kHomography, ModelCheck::kOk, 0.15},
+                      ModelCase{"similarity_clustered", model(3, 1, 0.05, 1.02), 200, kCorner, 0.0,
+                                MotionModel::kSimilarity, ModelCheck::kLowCoverage, 0.5},
+                      ModelCase{"few_features_translation", model(5, -2, 0, 1), 20, kWhole, 0.0,
+                                MotionModel::kTranslation, ModelCheck::kTooFewInliers, 0.15},
+                      ModelCase{"two_features_invalid", model(5, -2, 0, 1), 2, kWhole, 0.0,
+                                MotionModel::kInvalid, ModelCheck::kNotFitted, 0},
+                      // Beyond the rotation or scale bounds nothing holds: a translation
+                      // explains only the few features near the centre.
+                      ModelCase{"rotation_out_of_bounds", model(0, 0, 0.4, 1), 200, kWhole, 0.0,
+                                MotionModel::kInvalid, ModelCheck::kRotation, 0},
+                      ModelCase{"scale_out_of_bounds", model(0, 0, 0, 1.35), 200, kWhole, 0.0,
+                                MotionModel::kInvalid, ModelCheck::kScale, 0},
+                      // Mild perspective (1.6e-2 in diagonal units) against a bound
+                      // tightened to 1e-2: the homography is refused, the similarity (2 px
+                      // off at the far corners, inside the inlier threshold) holds.
+                      ModelCase{"perspective_out_of_bounds", model(0, 0, 0, 1, 2e-5, 0), 200,
+                                kWhole, 0.0, MotionModel::kSimilarity, ModelCheck::kPerspective, 0,
+                                0.01},
+                      ModelCase{"translation_out_of_bounds", model(200, 0, 0, 1), 200, kWhole, 0.0,
+                                MotionModel::kInvalid, ModelCheck::kTranslation, 0},
+                      // 85% random motion: ~90 inliers, enough in number for every model
+                      // but too small a fraction for a similarity or homography.
+                      ModelCase{"mostly_outliers_translation", model(2, 2, 0, 1), 600, kWhole, 0.85,
+                                MotionModel::kTranslation, ModelCheck::kLowInlierFraction, 0.15}),
     [](const ::testing::TestParamInfo<ModelCase>& info) { return info.param.name; });
 
 // Temporal coherence: a coherent object holding 55% of the features would win

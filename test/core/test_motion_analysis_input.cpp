@@ -18,7 +18,9 @@ namespace {
 using synthetic::Motion;
 using synthetic::Scene;
 
-cv::Mat texturedFrame(int w = 640, int h = 480, uint64_t seed = 3) { return synthetic::texture(w, h, seed); }
+cv::Mat texturedFrame(int w = 640, int h = 480, uint64_t seed = 3) {
+  return synthetic::texture(w, h, seed);
+}
 
 TEST(MotionAnalysisInput, FirstFrameIsInvalidIdentityWithZeroMotion) {
   MotionAnalyzer analyzer{MotionAnalysisOptions()};
@@ -49,12 +51,12 @@ TEST(MotionAnalysisInput, BadImagesAreInvalidAndNeverThrow) {
   double t = 1.0;
   analyzer.process(texturedFrame(), t);
   const std::vector<cv::Mat> bad = {
-      cv::Mat(),                                      // empty
-      cv::Mat(1, 1, CV_8UC1, cv::Scalar(7)),          // 1 pixel
-      cv::Mat(480, 1, CV_8UC1, cv::Scalar(7)),        // 1 pixel wide
+      cv::Mat(),                                        // empty
+      cv::Mat(1, 1, CV_8UC1, cv::Scalar(7)),            // 1 pixel
+      cv::Mat(480, 1, CV_8UC1, cv::Scalar(7)),          // 1 pixel wide
       cv::Mat(480, 640, CV_8UC3, cv::Scalar(1, 2, 3)),  // colour
-      cv::Mat(480, 640, CV_16UC1, cv::Scalar(1000)),  // 16 bit
-      cv::Mat(480, 640, CV_32FC1, cv::Scalar(0.5)),   // float
+      cv::Mat(480, 640, CV_16UC1, cv::Scalar(1000)),    // 16 bit
+      cv::Mat(480, 640, CV_32FC1, cv::Scalar(0.5)),     // float
   };
   for (const cv::Mat& img : bad) {
     MotionData md;
@@ -126,7 +128,8 @@ TEST(MotionAnalysisInput, DuplicatedFrameIsIdentity) {
 // Frames smaller than the analysis width (no downscale), odd sizes, and a
 // frame just above the minimum size all work.
 TEST(MotionAnalysisInput, SmallAndOddSizes) {
-  for (const cv::Size size : {cv::Size(17, 16), cv::Size(33, 65), cv::Size(301, 173), cv::Size(1001, 37)}) {
+  for (const cv::Size size :
+       {cv::Size(17, 16), cv::Size(33, 65), cv::Size(301, 173), cv::Size(1001, 37)}) {
     MotionAnalyzer analyzer{MotionAnalysisOptions()};
     const cv::Mat big = texturedFrame(size.width + 8, size.height + 8, 5);
     for (int i = 0; i < 4; ++i) {
@@ -204,7 +207,8 @@ TEST(MotionAnalysisTracks, PixelConventionUnderLargeSimilarity) {
     // M_ours maps texture pixels (our convention) to frame pixels.
     const Eigen::Matrix3d M_cv = synthetic::toOurs().inverse() * M_ours * synthetic::toOurs();
     cv::Mat img;
-    cv::warpPerspective(tex, img, synthetic::toCv(M_cv), cv::Size(w, h), cv::INTER_LINEAR, cv::BORDER_REFLECT);
+    cv::warpPerspective(tex, img, synthetic::toCv(M_cv), cv::Size(w, h), cv::INTER_LINEAR,
+                        cv::BORDER_REFLECT);
     return img;
   };
   Eigen::Matrix3d M0 = Eigen::Matrix3d::Identity();
@@ -249,7 +253,8 @@ TEST(FeatureTracker, SpreadsFeaturesOverTheGrid) {
   cv::Mat blanked = img.clone();
   blanked(cv::Rect(0, 0, 160, 120)).setTo(cv::Scalar(128));
   for (int i = 0; i < 2 * o.detect_interval; ++i) tracker.track(blanked);
-  for (const FeatureTrack& t : tracker.tracks()) EXPECT_FALSE(t.cur.x < 150 && t.cur.y < 110) << t.cur;
+  for (const FeatureTrack& t : tracker.tracks())
+    EXPECT_FALSE(t.cur.x < 150 && t.cur.y < 110) << t.cur;
   for (int i = 0; i < 6 * o.detect_interval; ++i) tracker.track(img);
   cells.clear();
   for (const FeatureTrack& t : tracker.tracks()) cells.insert(tracker.gridCell(t.cur));

@@ -38,7 +38,8 @@ inline cv::Mat texture(int w, int h, uint64_t seed) {
       const cv::Point b = a + cv::Point(rng.uniform(-40, 40), rng.uniform(-40, 40));
       cv::line(out, a, b, cv::Scalar(g), rng.uniform(1, 4), cv::LINE_AA);
     } else {
-      cv::rectangle(out, cv::Rect(a.x, a.y, rng.uniform(4, 24), rng.uniform(4, 24)), cv::Scalar(g), cv::FILLED);
+      cv::rectangle(out, cv::Rect(a.x, a.y, rng.uniform(4, 24), rng.uniform(4, 24)), cv::Scalar(g),
+                    cv::FILLED);
     }
   }
   cv::GaussianBlur(out, out, cv::Size(0, 0), 0.8);  // band-limit: warps stay alias-free
@@ -65,9 +66,9 @@ inline Eigen::Vector2d apply(const Eigen::Matrix3d& H, const Eigen::Vector2d& p)
 }
 
 struct Frame {
-  cv::Mat image;                          // CV_8UC1
-  Eigen::Matrix3d H_prev_cur;             // background, previous -> current (ours); identity for frame 0
-  std::vector<cv::Rect2d> card_boxes;     // bounding boxes of the cards in this frame (ours)
+  cv::Mat image;               // CV_8UC1
+  Eigen::Matrix3d H_prev_cur;  // background, previous -> current (ours); identity for frame 0
+  std::vector<cv::Rect2d> card_boxes;  // bounding boxes of the cards in this frame (ours)
 };
 
 // Camera motions the tests exercise (all exact homographies of a plane).
@@ -75,12 +76,18 @@ enum class Motion { kStill, kPan, kRoll, kZoom, kPerspective, kMixed };
 
 inline const char* motionName(Motion m) {
   switch (m) {
-    case Motion::kStill: return "still";
-    case Motion::kPan: return "pan";
-    case Motion::kRoll: return "roll";
-    case Motion::kZoom: return "zoom";
-    case Motion::kPerspective: return "perspective";
-    case Motion::kMixed: return "mixed";
+    case Motion::kStill:
+      return "still";
+    case Motion::kPan:
+      return "pan";
+    case Motion::kRoll:
+      return "roll";
+    case Motion::kZoom:
+      return "zoom";
+    case Motion::kPerspective:
+      return "perspective";
+    case Motion::kMixed:
+      return "mixed";
   }
   return "?";
 }
@@ -104,14 +111,17 @@ class Scene {
       cv::warpPerspective(bg_, img, toCv(M), cv::Size(w, h), cv::INTER_LINEAR, cv::BORDER_REFLECT);
       Frame f;
       const Eigen::Matrix3d M_ours = toOurs() * M * toOurs().inverse();
-      f.H_prev_cur = i == 0 ? Eigen::Matrix3d::Identity() : Eigen::Matrix3d(M_ours * prev_bg.inverse());
+      f.H_prev_cur =
+          i == 0 ? Eigen::Matrix3d::Identity() : Eigen::Matrix3d(M_ours * prev_bg.inverse());
       f.H_prev_cur /= f.H_prev_cur(2, 2);
       prev_bg = M_ours;
       for (int c = 0; c < cards; ++c) {
         // Each card slides on its own Lissajous path and rotates slowly.
         const double t = i / 30.0;
-        const double cx = w * (0.25 + 0.25 * c) + 0.12 * w * std::sin(2 * M_PI * (0.35 + 0.1 * c) * t + c);
-        const double cy = h * (0.35 + 0.15 * (c % 2)) + 0.12 * h * std::cos(2 * M_PI * (0.25 + 0.07 * c) * t);
+        const double cx =
+            w * (0.25 + 0.25 * c) + 0.12 * w * std::sin(2 * M_PI * (0.35 + 0.1 * c) * t + c);
+        const double cy =
+            h * (0.35 + 0.15 * (c % 2)) + 0.12 * h * std::cos(2 * M_PI * (0.25 + 0.07 * c) * t);
         const double ang = 0.15 * std::sin(2 * M_PI * 0.2 * t + c);
         const cv::Mat& tex = card_tex_[c];
         Eigen::Matrix3d C;
@@ -121,9 +131,10 @@ class Scene {
         Tc(1, 2) = -0.5 * (tex.rows - 1);
         const Eigen::Matrix3d Mc = C * Tc;
         cv::Mat card, mask;
-        cv::warpPerspective(tex, card, toCv(Mc), cv::Size(w, h), cv::INTER_LINEAR, cv::BORDER_CONSTANT);
-        cv::warpPerspective(cv::Mat(tex.size(), CV_8U, cv::Scalar(255)), mask, toCv(Mc), cv::Size(w, h),
-                            cv::INTER_LINEAR, cv::BORDER_CONSTANT);
+        cv::warpPerspective(tex, card, toCv(Mc), cv::Size(w, h), cv::INTER_LINEAR,
+                            cv::BORDER_CONSTANT);
+        cv::warpPerspective(cv::Mat(tex.size(), CV_8U, cv::Scalar(255)), mask, toCv(Mc),
+                            cv::Size(w, h), cv::INTER_LINEAR, cv::BORDER_CONSTANT);
         // Alpha blend along the anti-aliased edge.
         cv::Mat a, imgf, cardf;
         mask.convertTo(a, CV_32F, 1 / 255.0);
@@ -132,10 +143,13 @@ class Scene {
         imgf = imgf.mul(1 - a) + cardf.mul(a);
         imgf.convertTo(img, CV_8U);
         double x0 = 1e9, y0 = 1e9, x1 = -1e9, y1 = -1e9;
-        for (const auto& corner : {Eigen::Vector2d(-0.5, -0.5), Eigen::Vector2d(tex.cols - 0.5, -0.5),
-                                   Eigen::Vector2d(tex.cols - 0.5, tex.rows - 0.5), Eigen::Vector2d(-0.5, tex.rows - 0.5)}) {
+        for (const auto& corner :
+             {Eigen::Vector2d(-0.5, -0.5), Eigen::Vector2d(tex.cols - 0.5, -0.5),
+              Eigen::Vector2d(tex.cols - 0.5, tex.rows - 0.5),
+              Eigen::Vector2d(-0.5, tex.rows - 0.5)}) {
           const Eigen::Vector2d q = apply(Mc, corner) + Eigen::Vector2d(0.5, 0.5);
-          x0 = std::min(x0, q.x()), y0 = std::min(y0, q.y()), x1 = std::max(x1, q.x()), y1 = std::max(y1, q.y());
+          x0 = std::min(x0, q.x()), y0 = std::min(y0, q.y()), x1 = std::max(x1, q.x()),
+          y1 = std::max(y1, q.y());
         }
         f.card_boxes.emplace_back(x0, y0, x1 - x0, y1 - y0);
       }
@@ -160,10 +174,17 @@ class Scene {
     const double t = i / 30.0;  // s at 30 fps
     double tx = 0, ty = 0, ang = 0, scale = 1, px = 0, py = 0;
     switch (motion_) {
-      case Motion::kStill: break;
-      case Motion::kPan: tx = -120 * t * w_ / 640.0, ty = -40 * std::sin(2 * t) * w_ / 640.0; break;
-      case Motion::kRoll: ang = 0.35 * std::sin(1.5 * t); break;
-      case Motion::kZoom: scale = 1.0 + 0.25 * std::sin(1.2 * t); break;
+      case Motion::kStill:
+        break;
+      case Motion::kPan:
+        tx = -120 * t * w_ / 640.0, ty = -40 * std::sin(2 * t) * w_ / 640.0;
+        break;
+      case Motion::kRoll:
+        ang = 0.35 * std::sin(1.5 * t);
+        break;
+      case Motion::kZoom:
+        scale = 1.0 + 0.25 * std::sin(1.2 * t);
+        break;
       case Motion::kPerspective:
         px = 0.25 * std::sin(1.3 * t) / w_, py = 0.2 * std::sin(0.9 * t + 1) / w_;
         tx = -60 * t * w_ / 640.0;
@@ -180,7 +201,8 @@ class Scene {
     Tc(0, 2) = -0.5 * tw;
     Tc(1, 2) = -0.5 * th;
     Eigen::Matrix3d S;
-    S << scale * std::cos(ang), -scale * std::sin(ang), tx, scale * std::sin(ang), scale * std::cos(ang), ty, 0, 0, 1;
+    S << scale * std::cos(ang), -scale * std::sin(ang), tx, scale * std::sin(ang),
+        scale * std::cos(ang), ty, 0, 0, 1;
     Eigen::Matrix3d P = Eigen::Matrix3d::Identity();
     P(2, 0) = px;
     P(2, 1) = py;

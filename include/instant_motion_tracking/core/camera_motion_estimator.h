@@ -65,7 +65,8 @@ class CameraMotionEstimator {
   // 1); frame: full-resolution size (sets the thresholds, the normalisation
   // and the coverage grid); previous_H: last frame's model as a seed (may be
   // null).
-  CameraMotionEstimate estimate(const std::vector<cv::Point2f>& prev, const std::vector<cv::Point2f>& cur,
+  CameraMotionEstimate estimate(const std::vector<cv::Point2f>& prev,
+                                const std::vector<cv::Point2f>& cur,
                                 const std::vector<float>& prior, const cv::Size& frame,
                                 const Eigen::Matrix3d* previous_H = nullptr) const;
 

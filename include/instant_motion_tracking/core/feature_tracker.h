@@ -30,11 +30,11 @@ namespace imt {
 
 // One feature path in the current frame.
 struct FeatureTrack {
-  uint32_t id = 0;       // unique over the tracker's life (also across reset())
-  cv::Point2f prev;      // position in the previous frame (== cur when age == 0)
-  cv::Point2f cur;       // position in the current frame
-  uint16_t age = 0;      // frames tracked; 0 = detected in this frame (no motion yet)
-  int prev_index = -1;   // index of this track in the previous frame's tracks(), -1 when new
+  uint32_t id = 0;      // unique over the tracker's life (also across reset())
+  cv::Point2f prev;     // position in the previous frame (== cur when age == 0)
+  cv::Point2f cur;      // position in the current frame
+  uint16_t age = 0;     // frames tracked; 0 = detected in this frame (no motion yet)
+  int prev_index = -1;  // index of this track in the previous frame's tracks(), -1 when new
 };
 
 class FeatureTracker {

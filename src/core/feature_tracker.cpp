@@ -179,14 +179,14 @@ void FeatureTracker::verifyBackward() {
     cv::calcOpticalFlowPyrLK(cur_pyr_, prev_pyr_, pts_cur_, pts_back_, status_, err_, win, levels_,
                              crit, 0);
     const float max_err2 = static_cast<float>(options_.fb_max_error * options_.fb_max_error);
+    drop_.assign(tracks_.size(), 0);
     for (size_t k = 0; k < m; ++k) {
-      FeatureTrack& t = tracks_[check_idx_[k]];
-      if (!status_[k] || !(dist2(pts_back_[k], t.prev) <= max_err2))
-        t.age = 0, t.prev_index = -2;  // mark lost
+      const FeatureTrack& t = tracks_[check_idx_[k]];
+      if (!status_[k] || !(dist2(pts_back_[k], t.prev) <= max_err2)) drop_[check_idx_[k]] = 1;
     }
     size_t w = 0;
     for (size_t i = 0; i < tracks_.size(); ++i) {
-      if (tracks_[i].prev_index == -2) {
+      if (drop_[i]) {
         ++stats_.lost_fb;
         continue;
       }

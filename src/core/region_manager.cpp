@@ -1,110 +1,45 @@
 #include "instant_motion_tracking/core/region_manager.h"
 
-#include <algorithm>
 #include <cmath>
-#include <cstdio>
 
 namespace imt {
-namespace {
-
-std::string fmtStamp(double s) {
-  char buf[32];
-  std::snprintf(buf, sizeof(buf), "%.6f", s);
-  return buf;
-}
-
-}  // namespace
 
 RegionManager::RegionManager(const RegionTrackerOptions& options, double cache_seconds)
-    : options_(options), cache_seconds_(cache_seconds) {}
+    : options_(options), cache_(cache_seconds) {}
 
 void RegionManager::clear() {
   cache_.clear();
   regions_.clear();
-  first_seq_ = 0;
 }
 
 std::vector<RegionState> RegionManager::update(const MotionData& md) {
   last_reset_.clear();
-  const cv::Size size(md.width, md.height);
-  if (!cache_.empty() && !(md.stamp > cache_.back().stamp)) {
-    last_reset_ = "stamp " + fmtStamp(md.stamp) + " does not follow " + fmtStamp(cache_.back().stamp) +
-                  ": cache and regions cleared";
-    clear();
-  } else if (!cache_.empty() && size != image_size_) {
-    last_reset_ = "image size changed: cache and regions cleared";
-    clear();
+  if (!cache_.push(md, &last_reset_)) {
+    regions_.clear();
+    last_reset_ += "; regions cleared";
   }
-  image_size_ = size;
-  cache_.push_back(md);
-  cache_.back().sortByX();
-  const uint64_t seq = seqOf(cache_.size() - 1);
+  const uint64_t seq = cache_.lastSeq();
   std::vector<RegionState> out;
   out.reserve(regions_.size());
-  for (auto& [id, r] : regions_) out.push_back(stateAt(r, seq));
-  prune();
+  for (auto& [id, r] : regions_) {
+    out.push_back(stateAt(r, seq));
+    // Forget states of frames that left the cache.
+    while (!r.states.empty() && r.states.begin()->first < cache_.firstSeq()) r.states.erase(r.states.begin());
+  }
   return out;
 }
 
-void RegionManager::prune() {
-  if (cache_seconds_ <= 0) return;
-  while (cache_.size() > 1 && cache_.back().stamp - cache_.front().stamp > cache_seconds_) {
-    cache_.pop_front();
-    ++first_seq_;
-  }
-  for (auto& [id, r] : regions_) {
-    while (!r.states.empty() && r.states.begin()->first < first_seq_) r.states.erase(r.states.begin());
-  }
-}
-
-int RegionManager::findFrame(double stamp, std::string* error) const {
-  if (cache_.empty()) {
-    *error = "no motion data received yet";
-    return -1;
-  }
-  if (stamp == 0) return static_cast<int>(cache_.size()) - 1;
-  if (!std::isfinite(stamp)) {
-    *error = "stamp is not a finite number";
-    return -1;
-  }
-  const auto it = std::lower_bound(cache_.begin(), cache_.end(), stamp,
-                                   [](const MotionData& m, double s) { return m.stamp < s; });
-  int best = -1;
-  double best_d = 1e300;
-  for (auto c : {it - 1, it}) {
-    if (c < cache_.begin() || c >= cache_.end()) continue;
-    const double d = std::abs(c->stamp - stamp);
-    if (d < best_d) {
-      best_d = d;
-      best = static_cast<int>(c - cache_.begin());
-    }
-  }
-  // Half the mean frame interval around the nearest frame (one frame: exact only).
-  const double interval =
-      cache_.size() > 1 ? (cache_.back().stamp - cache_.front().stamp) / (cache_.size() - 1) : 0;
-  if (best_d > 0.5 * interval + 1e-6) {
-    *error = "stamp " + fmtStamp(stamp) + " is outside the motion-data cache (" +
-             fmtStamp(cache_.front().stamp) + " .. " + fmtStamp(cache_.back().stamp) + ")";
-    if (stamp >= cache_.front().stamp && stamp <= cache_.back().stamp)
-      *error = "stamp " + fmtStamp(stamp) + " is not within half a frame of any cached frame";
-    return -1;
-  }
-  return best;
-}
-
 const RegionState& RegionManager::stateAt(Region& r, uint64_t seq) {
-  RegionTracker tracker(options_, image_size_);
+  RegionTracker tracker(options_, cache_.imageSize());
   auto& st = r.states;
   // Forward from the newest known state.
   for (uint64_t s = st.rbegin()->first; s < seq; ++s) {
-    const MotionData& md = cache_[s + 1 - first_seq_];
-    st[s + 1] = tracker.step(st[s], md, Direction::kForward);
+    st[s + 1] = tracker.step(st[s], cache_.at(s + 1), Direction::kForward);
   }
   // Backward from the oldest known state.
   for (uint64_t s = st.begin()->first; s > seq; --s) {
-    const MotionData& md = cache_[s - first_seq_];
-    const double prev_stamp = cache_[s - 1 - first_seq_].stamp;
-    st[s - 1] = tracker.step(st[s].reversed(), md, Direction::kBackward, prev_stamp).reversed();
+    st[s - 1] = tracker.step(st[s].reversed(), cache_.at(s), Direction::kBackward, cache_.at(s - 1).stamp)
+                    .reversed();
   }
   return st.at(seq);
 }
@@ -125,11 +60,12 @@ bool RegionManager::add(uint32_t id, double stamp, const cv::Rect2d& box, uint32
     *error = "region id " + std::to_string(id) + " is already tracked";
     return false;
   }
-  const int index = findFrame(stamp, error);
-  if (index < 0) return false;
-  if ((box & cv::Rect2d(0, 0, image_size_.width, image_size_.height)).area() <= 0) {
-    *error = "box lies entirely outside the " + std::to_string(image_size_.width) + "x" +
-             std::to_string(image_size_.height) + " image";
+  uint64_t seq;
+  if (!cache_.find(stamp, &seq, error)) return false;
+  const cv::Size size = cache_.imageSize();
+  if ((box & cv::Rect2d(0, 0, size.width, size.height)).area() <= 0) {
+    *error = "box lies entirely outside the " + std::to_string(size.width) + "x" +
+             std::to_string(size.height) + " image";
     return false;
   }
   if (id == 0) {
@@ -138,9 +74,8 @@ bool RegionManager::add(uint32_t id, double stamp, const cv::Rect2d& box, uint32
   }
   Region& r = regions_[id];
   r.id = id;
-  const uint64_t seq = seqOf(index);
-  r.states[seq] = RegionState::start(id, box, cache_[index].stamp);
-  stateAt(r, seqOf(cache_.size() - 1));  // catch up to the present
+  r.states[seq] = RegionState::start(id, box, cache_.at(seq).stamp);
+  stateAt(r, cache_.lastSeq());  // catch up to the present
   *assigned_id = id;
   return true;
 }
@@ -161,10 +96,9 @@ bool RegionManager::seek(double stamp, const std::vector<uint32_t>& ids,
       return false;
     }
   }
-  const int index = findFrame(stamp, error);
-  if (index < 0) return false;
+  uint64_t seq;
+  if (!cache_.find(stamp, &seq, error)) return false;
   states->clear();
-  const uint64_t seq = seqOf(index);
   if (ids.empty()) {
     for (auto& [id, r] : regions_) states->push_back(stateAt(r, seq));
   } else {

@@ -16,9 +16,9 @@
 // Threading: not thread-safe; callers serialise (the nodelet holds a mutex).
 #pragma once
 
+#include "instant_motion_tracking/core/motion_cache.h"
 #include "instant_motion_tracking/core/region_tracker.h"
 
-#include <deque>
 #include <map>
 #include <string>
 #include <vector>
@@ -46,9 +46,10 @@ class RegionManager {
   std::vector<RegionState> latest() const;
 
   void clear();
+  const MotionCache& cache() const { return cache_; }
   size_t cachedFrames() const { return cache_.size(); }
-  double oldestStamp() const { return cache_.empty() ? 0 : cache_.front().stamp; }
-  double newestStamp() const { return cache_.empty() ? 0 : cache_.back().stamp; }
+  double oldestStamp() const { return cache_.oldestStamp(); }
+  double newestStamp() const { return cache_.newestStamp(); }
   size_t regionCount() const { return regions_.size(); }
   const std::string& lastReset() const { return last_reset_; }
 
@@ -57,20 +58,12 @@ class RegionManager {
     uint32_t id = 0;
     std::map<uint64_t, RegionState> states;  // by frame sequence number, forward semantics
   };
-  // Index into cache_ of the frame nearest `stamp` within half a frame
-  // interval, or -1 with an error message.
-  int findFrame(double stamp, std::string* error) const;
-  uint64_t seqOf(size_t index) const { return first_seq_ + index; }
   const RegionState& stateAt(Region& r, uint64_t seq);
-  void prune();
 
   RegionTrackerOptions options_;
-  double cache_seconds_;
-  std::deque<MotionData> cache_;
-  uint64_t first_seq_ = 0;  // sequence number of cache_.front()
+  MotionCache cache_;
   std::map<uint32_t, Region> regions_;
   std::string last_reset_;
-  cv::Size image_size_;
 };
 
 }  // namespace imt

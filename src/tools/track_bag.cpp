@@ -15,6 +15,7 @@
 #include "instant_motion_tracking/ros/conversions.h"
 #include "instant_motion_tracking/ros/image_conversion.h"
 
+#include <console_bridge/console.h>
 #include <ros/package.h>
 #include <rosbag/bag.h>
 
@@ -57,8 +58,8 @@ options:
                             package, the file the nodelets load)
   --out-bag FILE            also write every output message to this bag
                             (/motion_data, ...)
-  --start S, --end S        process only the part from S to E seconds after
-                            the bag's first message (as rosbag play -s / -u)
+  --start S, --end E        process only the part from S to E seconds after
+                            the bag's first message (bag time, as rosbag play -s)
   --quiet                   no progress bar
   -h, --help                this text
 
@@ -272,6 +273,39 @@ class StderrCapture {
   int saved_ = -1;
 };
 
+// Collects what the ROS libraries log through console_bridge (rosbag and
+// roscpp's header parser print errors there before throwing), instead of
+// letting it reach stderr: a failure is then still one line, carrying the
+// library's words; on success they are printed as warnings, once each.
+class LibraryLog : public console_bridge::OutputHandler {
+ public:
+  void log(const std::string& text, console_bridge::LogLevel level, const char*, int) override {
+    if (level < console_bridge::CONSOLE_BRIDGE_LOG_WARN) return;
+    std::string line;
+    bool space = false;
+    for (char c : text) {  // one line, runs of whitespace collapsed
+      const bool ws = c == ' ' || c == '\n' || c == '\r' || c == '\t';
+      if (ws) {
+        space = !line.empty();
+      } else {
+        if (space) line += ' ';
+        line += c;
+        space = false;
+      }
+    }
+    if (line.empty() || messages.size() >= 5) return;
+    for (const std::string& m : messages)
+      if (m == line) return;
+    messages.push_back(line);
+  }
+  std::vector<std::string> messages;
+};
+
+LibraryLog& libraryLog() {
+  static LibraryLog log;
+  return log;
+}
+
 // Messages printed once each after a successful run.
 struct Notes {
   std::vector<std::string> lines;
@@ -279,292 +313,341 @@ struct Notes {
   void note(const std::string& s) { lines.push_back("note: " + s); }
 };
 
-int run(const Args& args) {
-  Stopwatch total_clock;
-  Notes notes;
+// One run of the tool: inputs, outputs, the frame loop and the summary. Every
+// step fails through fail(); the frame callbacks return false with a message.
+class TrackBagRun {
+ public:
+  explicit TrackBagRun(const Args& args) : args_(args) {}
 
-  // Configuration and INIT.yaml first: they are cheap to check.
-  std::string err;
-  const std::string config_path = args.config.empty() ? defaultConfigPath() : args.config;
-  if (config_path.empty())
-    fail("cannot find config/default.yaml of package instant_motion_tracking (source the "
-         "workspace's setup.bash, or pass --config FILE)");
-  imt::Config config;
-  if (!imt::loadConfigFile(config_path, &config, &err)) fail(err);
-  imt::InitSpec init;
-  if (!args.init.empty() && !imt::loadInitSpecFile(args.init, &init, &err)) fail(err);
-
-  // The bag: topics and every frame's stamp.
-  Stopwatch stage;
-  imt::BagInputOptions in_opt;
-  in_opt.image_topic = args.image_topic;
-  in_opt.camera_info_topic = args.camera_info_topic;
-  in_opt.imu_topic = args.imu_topic;
-  in_opt.start = args.start;
-  in_opt.end = args.end;
-  imt::BagInput input;
-  if (!input.open(args.bag, in_opt, &err)) fail(err);
-  const std::vector<double>& frame_stamps = input.frameStamps();
-  const bool windowed = args.start > 0 || args.end >= 0;
-  if (!imt::resolveInitStamps(frame_stamps, args.init,
-                              windowed ? "the part of the bag given by --start/--end" : "the bag",
-                              &init, &err))
-    fail(err);
-
-  // Intrinsics: the first valid camera_info, else the field-of-view default.
-  sensor_msgs::CameraInfo info_msg;
-  imt::CameraIntrinsics k_info;
-  std::string why;
-  if (input.firstCameraInfo(
-          [&](const sensor_msgs::CameraInfo& m, std::string* reason) {
-            return imt::fromCameraInfo(m, &k_info, reason);
-          },
-          &info_msg, &why)) {
-  } else {
-    k_info = imt::CameraIntrinsics();
-    notes.note(why + "; intrinsics from default_hfov_deg " +
-               imt::formatShortest(config.pipeline.default_hfov_deg) + " deg");
+  int run() {
+    loadInputs();
+    openOutputs();
+    play();
+    finish();
+    writeSummary();
+    for (const std::string& line : notes_.lines) std::fprintf(stderr, "track_bag: %s\n", line.c_str());
+    if (!args_.quiet && isatty(STDERR_FILENO))
+      std::fprintf(stderr, "track_bag: %zu frames in %.2f s (%.1f frames/s); results in %s\n",
+                   frames_, seconds_, seconds_ > 0 ? frames_ / seconds_ : 0.0, args_.out_dir.c_str());
+    return 0;
   }
 
-  // IMU -> camera rotation from tf, kept for the IMU-aided trackers.
-  std::optional<Eigen::Quaterniond> q_cam_imu;
-  std::string imu_frame, tf_why;
-  if (!input.imuTopic().empty()) {
-    imu_frame = input.imuFrameId();
-    Eigen::Quaterniond q;
-    if (input.lookupRotation(input.imageFrameId(), imu_frame, &q, &tf_why)) q_cam_imu = q;
-  }
-  const double open_seconds = stage.lap();
-
-  // Outputs: created before the long run so that a bad --out-dir fails fast.
-  std::error_code ec;
-  fs::create_directories(args.out_dir, ec);
-  if (!fs::is_directory(args.out_dir))
-    fail("cannot create --out-dir '" + args.out_dir + "'" + (ec ? ": " + ec.message() : ""));
-  const std::string dir = args.out_dir + "/";
-  imt::CsvWriter camera_csv, regions_csv, targets_csv, anchors_csv;
-  if (!camera_csv.open(dir + "camera_motion.csv", imt::cameraMotionColumns(), &err) ||
-      !regions_csv.open(dir + "regions.csv", imt::regionColumns(), &err) ||
-      !targets_csv.open(dir + "planar_targets.csv", imt::planarTargetColumns(), &err) ||
-      !anchors_csv.open(dir + "anchors.csv", imt::anchorColumns(), &err))
-    fail(err);
-  // Trackers of later versions: their files hold the header only, said once.
-  if (!init.regions.empty())
-    notes.note("region tracking is not implemented in this version; regions.csv holds its header only");
-  if (!init.planar_targets.empty())
-    notes.note("planar target tracking is not implemented in this version; planar_targets.csv "
-               "holds its header only");
-  if (!init.anchors.empty())
-    notes.note("anchor tracking is not implemented in this version; anchors.csv holds its header only");
-
-  std::unique_ptr<rosbag::Bag> out_bag;
-  if (!args.out_bag.empty()) {
-    try {
-      out_bag = std::make_unique<rosbag::Bag>(args.out_bag, rosbag::bagmode::Write);
-    } catch (const std::exception& e) {
-      fail("cannot create --out-bag '" + args.out_bag + "': " + e.what());
-    }
-  }
-
-  // The run.
-  imt::Pipeline pipeline(config.pipeline);
-  const imt::PipelineOptions& popt = config.pipeline;
-  std::string intrinsics_source = "none";
-  cv::Size intrinsics_size;
-  bool size_warned = false;
-  std::map<std::string, double> stage_seconds;
-  std::map<std::string, int> model_counts;
+ private:
   struct ResetInfo {
     int count = 0;
     int first_frame = 0;
     double first_stamp = 0;
   };
-  std::map<std::string, ResetInfo> resets;
-  int imu_used = 0, imu_dropped = 0;
-  double imu_first_dropped = 0;
-  size_t frames = 0;
-  StderrCapture capture;
-  int decoder_warnings = 0;
-  std::string first_decoder_warning;
-  Progress progress(frame_stamps.size(), !args.quiet && isatty(STDERR_FILENO));
 
-  imt::BagInput::Callbacks cb;
-  cb.imu = [&](const sensor_msgs::Imu& m, const ros::Time&) {
-    Stopwatch t;
+  // Configuration, INIT.yaml (cheap to check, so first), the bag with every
+  // frame's stamp, intrinsics and the IMU -> camera rotation.
+  void loadInputs() {
+    std::string err;
+    config_path_ = args_.config.empty() ? defaultConfigPath() : args_.config;
+    if (config_path_.empty())
+      fail("cannot find config/default.yaml of package instant_motion_tracking (source the "
+           "workspace's setup.bash, or pass --config FILE)");
+    if (!imt::loadConfigFile(config_path_, &config_, &err)) fail(err);
+    if (!args_.init.empty() && !imt::loadInitSpecFile(args_.init, &init_, &err)) fail(err);
+
+    Stopwatch clock;
+    imt::BagInputOptions opt;
+    opt.image_topic = args_.image_topic;
+    opt.camera_info_topic = args_.camera_info_topic;
+    opt.imu_topic = args_.imu_topic;
+    opt.start = args_.start;
+    opt.end = args_.end;
+    if (!input_.open(args_.bag, opt, &err)) fail(err);
+    const bool windowed = args_.start > 0 || args_.end >= 0;
+    if (!imt::resolveInitStamps(input_.frameStamps(), args_.init,
+                                windowed ? "the part of the bag given by --start/--end" : "the bag",
+                                &init_, &err))
+      fail(err);
+
+    // Intrinsics: the first valid camera_info, else the field-of-view default.
+    sensor_msgs::CameraInfo info;
+    std::string why;
+    const bool have_info = input_.firstCameraInfo(
+        [&](const sensor_msgs::CameraInfo& m, std::string* reason) {
+          return imt::fromCameraInfo(m, &k_info_, reason);
+        },
+        &info, &why);
+    if (!have_info) {
+      k_info_ = imt::CameraIntrinsics();
+      notes_.note(why + "; intrinsics from default_hfov_deg " + hfov() + " deg");
+    }
+
+    // IMU -> camera rotation from tf, kept for the IMU-aided trackers.
+    if (!input_.imuTopic().empty()) {
+      imu_frame_ = input_.imuFrameId();
+      Eigen::Quaterniond q;
+      if (input_.lookupRotation(input_.imageFrameId(), imu_frame_, &q, &tf_why_)) q_cam_imu_ = q;
+    }
+    stage_seconds_["open"] = clock.lap();
+  }
+
+  // Created before the long run, so that a bad --out-dir fails fast.
+  void openOutputs() {
+    std::string err;
+    std::error_code ec;
+    fs::create_directories(args_.out_dir, ec);
+    if (!fs::is_directory(args_.out_dir))
+      fail("cannot create --out-dir '" + args_.out_dir + "'" + (ec ? ": " + ec.message() : ""));
+    const std::string dir = args_.out_dir + "/";
+    if (!camera_csv_.open(dir + "camera_motion.csv", imt::cameraMotionColumns(), &err) ||
+        !regions_csv_.open(dir + "regions.csv", imt::regionColumns(), &err) ||
+        !targets_csv_.open(dir + "planar_targets.csv", imt::planarTargetColumns(), &err) ||
+        !anchors_csv_.open(dir + "anchors.csv", imt::anchorColumns(), &err))
+      fail(err);
+    // Trackers of later versions: their files hold the header only, said once.
+    if (!init_.regions.empty())
+      notes_.note("region tracking is not implemented in this version; regions.csv holds its "
+                  "header only");
+    if (!init_.planar_targets.empty())
+      notes_.note("planar target tracking is not implemented in this version; planar_targets.csv "
+                  "holds its header only");
+    if (!init_.anchors.empty())
+      notes_.note("anchor tracking is not implemented in this version; anchors.csv holds its "
+                  "header only");
+
+    if (!args_.out_bag.empty()) {
+      if (fs::equivalent(args_.out_bag, args_.bag, ec))
+        fail("--out-bag '" + args_.out_bag + "' is the input bag");
+      try {
+        out_bag_ = std::make_unique<rosbag::Bag>(args_.out_bag, rosbag::bagmode::Write);
+      } catch (const std::exception& e) {
+        fail("cannot create --out-bag '" + args_.out_bag + "': " + e.what());
+      }
+    }
+  }
+
+  void play() {
+    pipeline_ = std::make_unique<imt::Pipeline>(config_.pipeline);
+    progress_ = std::make_unique<Progress>(input_.frameStamps().size(),
+                                           !args_.quiet && isatty(STDERR_FILENO));
+    imt::BagInput::Callbacks cb;
+    cb.imu = [this](const sensor_msgs::Imu& m, const ros::Time&) { onImu(m); };
+    cb.image = [this](const imt::BagImage& im, std::string* why) { return onImage(im, why); };
+    Stopwatch clock;
+    std::string err;
+    if (!input_.play(cb, &err)) {
+      progress_->finish();
+      fail(err);
+    }
+    play_seconds_ = clock.lap();
+    progress_->update(frames_);
+    progress_->finish();
+  }
+
+  void onImu(const sensor_msgs::Imu& m) {
+    Stopwatch clock;
     imt::ImuSample s;
     std::string reason;
     if (imt::fromImuMsg(m, &s, &reason)) {
-      pipeline.addImu(s);
-      ++imu_used;
-    } else if (imu_dropped++ == 0) {
-      imu_first_dropped = m.header.stamp.toSec();
+      pipeline_->addImu(s);
+      ++imu_used_;
+    } else if (imu_dropped_++ == 0) {
+      imu_first_dropped_ = m.header.stamp.toSec();
     }
-    stage_seconds["imu"] += t.lap();
-  };
-  cb.image = [&](const imt::BagImage& im, std::string* why) {
-    Stopwatch t;
+    stage_seconds_["imu"] += clock.lap();
+  }
+
+  bool onImage(const imt::BagImage& im, std::string* why) {
+    Stopwatch clock;
     const double stamp = im.header().stamp.toSec();
+    const std::string where = "frame " + std::to_string(im.index) + " (stamp " + fixed(stamp, 6) +
+                              ") on " + input_.imageTopic();
     cv::Mat gray;
     std::string reason, decoder_said;
     bool ok;
     if (im.raw) {
       ok = imt::imageToGray(*im.raw, &gray, &reason);
     } else {
-      capture.start();
+      capture_.start();
       ok = imt::compressedImageToGray(*im.compressed, &gray, &reason);
-      decoder_said = capture.stop();
+      decoder_said = capture_.stop();
     }
-    const std::string where =
-        "frame " + std::to_string(im.index) + " (stamp " + fixed(stamp, 6) + ") on " + input.imageTopic();
     if (!ok) {
       *why = where + ": " + reason + (decoder_said.empty() ? "" : " [" + decoder_said + "]");
       return false;
     }
-    if (!decoder_said.empty() && decoder_warnings++ == 0) first_decoder_warning = where + ": " + decoder_said;
-    stage_seconds["decode"] += t.lap();
+    if (!decoder_said.empty() && decoder_warnings_++ == 0)
+      first_decoder_warning_ = where + ": " + decoder_said;
+    stage_seconds_["decode"] += clock.lap();
 
-    // Intrinsics for this frame's size (set again only when the size changes).
-    if (gray.size() != intrinsics_size) {
-      intrinsics_size = gray.size();
-      if (k_info.valid && k_info.width == gray.cols && k_info.height == gray.rows) {
-        pipeline.setIntrinsics(k_info);
-        intrinsics_source = "camera_info";
-      } else {
-        if (k_info.valid && !size_warned) {
-          size_warned = true;
-          notes.warn("image size " + std::to_string(gray.cols) + "x" + std::to_string(gray.rows) +
-                     " (first at frame " + std::to_string(im.index) + ") differs from " +
-                     input.cameraInfoTopic() + "'s " + std::to_string(k_info.width) + "x" +
-                     std::to_string(k_info.height) + "; intrinsics from default_hfov_deg " +
-                     imt::formatShortest(popt.default_hfov_deg) + " deg for it");
-        }
-        pipeline.setIntrinsics(
-            imt::CameraIntrinsics::fromFieldOfView(gray.cols, gray.rows, popt.default_hfov_deg));
-        if (intrinsics_source != "camera_info") intrinsics_source = "field_of_view";
-      }
-    }
-
-    const imt::FrameResult r = pipeline.processFrame(gray, stamp);
-    if (!pipeline.lastReset().empty() && im.index > 0) {
-      ResetInfo& ri = resets[pipeline.lastReset()];
+    setIntrinsicsFor(gray.size(), im.index);
+    const imt::FrameResult r = pipeline_->processFrame(gray, stamp);
+    if (!pipeline_->lastReset().empty() && im.index > 0) {
+      ResetInfo& ri = resets_[pipeline_->lastReset()];
       if (ri.count++ == 0) {
         ri.first_frame = im.index;
         ri.first_stamp = stamp;
       }
     }
-    t.lap();  // pipeline stages are timed by the pipeline itself
+    clock.lap();  // the pipeline times its own stages
 
-    ++model_counts[imt::motionModelName(r.motion.camera.model)];
-    if (!camera_csv.write(imt::cameraMotionRow(r.motion), why)) return false;
-    if (out_bag) {
+    ++model_counts_[imt::motionModelName(r.motion.camera.model)];
+    if (!camera_csv_.write(imt::cameraMotionRow(r.motion), why)) return false;
+    if (out_bag_) {
       try {
         const ros::Time when = std::max(im.bag_time, ros::TIME_MIN);
-        out_bag->write("/motion_data", when, imt::toMsg(r.motion, im.header()));
+        out_bag_->write("/motion_data", when, imt::toMsg(r.motion, im.header()));
       } catch (const std::exception& e) {
-        *why = "cannot write --out-bag '" + args.out_bag + "': " + e.what();
+        *why = "cannot write --out-bag '" + args_.out_bag + "': " + e.what();
         return false;
       }
     }
-    stage_seconds["write"] += t.lap();
-    progress.update(++frames);
+    stage_seconds_["write"] += clock.lap();
+    progress_->update(++frames_);
     return true;
-  };
-  Stopwatch play_clock;
-  if (!input.play(cb, &err)) {
-    progress.finish();
-    fail(err);
   }
-  const double play_seconds = play_clock.lap();
-  progress.update(frames);
-  progress.finish();
 
-  // Close and summarise.
-  Stopwatch close_clock;
-  for (imt::CsvWriter* w : {&camera_csv, &regions_csv, &targets_csv, &anchors_csv})
-    if (!w->close(&err)) fail(err);
-  if (out_bag) {
-    try {
-      out_bag->close();
-    } catch (const std::exception& e) {
-      fail("cannot write --out-bag '" + args.out_bag + "': " + e.what());
+  // camera_info's intrinsics when the frame has its size, else the
+  // field-of-view default for the frame's size (warned once). Set again only
+  // when the frame size changes.
+  void setIntrinsicsFor(const cv::Size& size, int index) {
+    if (size == intrinsics_size_) return;
+    intrinsics_size_ = size;
+    if (k_info_.valid && k_info_.width == size.width && k_info_.height == size.height) {
+      pipeline_->setIntrinsics(k_info_);
+      intrinsics_source_ = "camera_info";
+      return;
     }
+    if (k_info_.valid && !size_warned_) {
+      size_warned_ = true;
+      notes_.warn("image size " + std::to_string(size.width) + "x" + std::to_string(size.height) +
+                  " (first at frame " + std::to_string(index) + ") differs from " +
+                  input_.cameraInfoTopic() + "'s " + std::to_string(k_info_.width) + "x" +
+                  std::to_string(k_info_.height) + "; intrinsics from default_hfov_deg " + hfov() +
+                  " deg for it");
+    }
+    pipeline_->setIntrinsics(imt::CameraIntrinsics::fromFieldOfView(
+        size.width, size.height, config_.pipeline.default_hfov_deg));
+    intrinsics_source_ = "field_of_view";
   }
-  stage_seconds["write"] += close_clock.lap();
 
-  for (const auto& [reason, ri] : resets)
-    notes.warn("motion analysis reset " + std::to_string(ri.count) + " time(s): " + reason +
-               " (first at frame " + std::to_string(ri.first_frame) + ", stamp " +
-               fixed(ri.first_stamp, 6) + ")");
-  if (decoder_warnings)
-    notes.warn("the image decoder complained about " + std::to_string(decoder_warnings) +
-               " compressed frame(s) (first: " + first_decoder_warning + ")");
-  if (imu_dropped)
-    notes.warn("dropped " + std::to_string(imu_dropped) + " IMU sample(s) with NaN/Inf values "
-               "(first at stamp " + fixed(imu_first_dropped, 6) + ")");
-  if (!input.imuTopic().empty() && !q_cam_imu)
-    notes.note("IMU-to-camera rotation unknown: " + tf_why);
+  // Closes the outputs and turns the counts into warnings.
+  void finish() {
+    Stopwatch clock;
+    std::string err;
+    for (imt::CsvWriter* w : {&camera_csv_, &regions_csv_, &targets_csv_, &anchors_csv_})
+      if (!w->close(&err)) fail(err);
+    if (out_bag_) {
+      try {
+        out_bag_->close();
+      } catch (const std::exception& e) {
+        fail("cannot write --out-bag '" + args_.out_bag + "': " + e.what());
+      }
+    }
+    stage_seconds_["write"] += clock.lap();
 
-  imt::RunSummary summary;
-  summary.frames = static_cast<int>(frames);
-  for (const auto& [name, s] : pipeline.times().seconds) stage_seconds[name] += s;
-  double callbacks = 0;
-  for (const auto& [name, s] : stage_seconds) callbacks += s;
-  stage_seconds["read"] = std::max(0.0, play_seconds - callbacks);
-  stage_seconds["open"] = open_seconds;
-  summary.stage_seconds = stage_seconds;
-  summary.seconds = total_clock.lap();
+    for (const auto& [reason, ri] : resets_)
+      notes_.warn("motion analysis reset " + std::to_string(ri.count) + " time(s): " + reason +
+                  " (first at frame " + std::to_string(ri.first_frame) + ", stamp " +
+                  fixed(ri.first_stamp, 6) + ")");
+    if (decoder_warnings_)
+      notes_.warn("the image decoder complained about " + std::to_string(decoder_warnings_) +
+                  " compressed frame(s) (first: " + first_decoder_warning_ + ")");
+    if (imu_dropped_)
+      notes_.warn("dropped " + std::to_string(imu_dropped_) + " IMU sample(s) with NaN/Inf values "
+                  "(first at stamp " + fixed(imu_first_dropped_, 6) + ")");
+    if (!input_.imuTopic().empty() && !q_cam_imu_)
+      notes_.note("IMU-to-camera rotation unknown: " + tf_why_);
+    for (const std::string& m : libraryLog().messages) notes_.warn(m);
+  }
 
-  nlohmann::json& d = summary.details;
-  d["bag"] = args.bag;
-  d["config"] = config_path;
-  d["init"] = args.init.empty() ? nlohmann::json() : nlohmann::json(args.init);
-  d["image_topic"] = input.imageTopic();
-  d["image_compressed"] = input.imageCompressed();
-  d["camera_info_topic"] =
-      input.cameraInfoTopic().empty() ? nlohmann::json() : nlohmann::json(input.cameraInfoTopic());
-  d["imu_topic"] = input.imuTopic().empty() ? nlohmann::json() : nlohmann::json(input.imuTopic());
-  d["window"] = {{"start", (input.windowBegin() - input.bagBegin()).toSec()},
-                 {"end", (input.windowEnd() - input.bagBegin()).toSec()}};
-  d["first_stamp"] = frame_stamps.front();
-  d["last_stamp"] = frame_stamps.back();
-  d["stamps_pass_seconds"] = input.stampsPassSeconds();
-  const imt::CameraIntrinsics& k = pipeline.intrinsics();
-  d["intrinsics"] = {{"source", intrinsics_source}, {"fx", k.fx}, {"fy", k.fy}, {"cx", k.cx},
-                     {"cy", k.cy}, {"width", k.width}, {"height", k.height}};
-  d["imu_samples"] = imu_used;
-  d["imu_dropped"] = imu_dropped;
-  d["image_frame"] = input.imageFrameId();
-  d["imu_frame"] = imu_frame.empty() ? nlohmann::json() : nlohmann::json(imu_frame);
-  if (q_cam_imu) {
-    const Eigen::Matrix3d R = q_cam_imu->toRotationMatrix();
-    d["R_cam_imu"] = {{R(0, 0), R(0, 1), R(0, 2)}, {R(1, 0), R(1, 1), R(1, 2)},
-                      {R(2, 0), R(2, 1), R(2, 2)}};
-  } else {
+  void writeSummary() {
+    imt::RunSummary summary;
+    summary.frames = static_cast<int>(frames_);
+    std::map<std::string, double> stages = stage_seconds_;
+    for (const auto& [name, s] : pipeline_->times().seconds) stages[name] += s;
+    double accounted = 0;  // time of the play loop spent outside reading the bag
+    for (const auto& [name, s] : stages)
+      if (name != "open") accounted += s;
+    stages["read"] = std::max(0.0, play_seconds_ - accounted);
+    summary.stage_seconds = stages;
+    summary.seconds = seconds_ = total_clock_.lap();
+
+    auto orNull = [](const std::string& s) { return s.empty() ? nlohmann::json() : nlohmann::json(s); };
+    nlohmann::json& d = summary.details;
+    d["bag"] = args_.bag;
+    d["config"] = config_path_;
+    d["init"] = orNull(args_.init);
+    d["image_topic"] = input_.imageTopic();
+    d["image_compressed"] = input_.imageCompressed();
+    d["camera_info_topic"] = orNull(input_.cameraInfoTopic());
+    d["imu_topic"] = orNull(input_.imuTopic());
+    d["window"] = {{"start", (input_.windowBegin() - input_.bagBegin()).toSec()},
+                   {"end", (input_.windowEnd() - input_.bagBegin()).toSec()}};
+    d["first_stamp"] = input_.frameStamps().front();
+    d["last_stamp"] = input_.frameStamps().back();
+    d["stamps_pass_seconds"] = input_.stampsPassSeconds();
+    const imt::CameraIntrinsics& k = pipeline_->intrinsics();
+    d["intrinsics"] = {{"source", intrinsics_source_}, {"fx", k.fx}, {"fy", k.fy}, {"cx", k.cx},
+                       {"cy", k.cy}, {"width", k.width}, {"height", k.height}};
+    d["imu_samples"] = imu_used_;
+    d["imu_dropped"] = imu_dropped_;
+    d["image_frame"] = input_.imageFrameId();
+    d["imu_frame"] = orNull(imu_frame_);
     d["R_cam_imu"] = nullptr;
+    if (q_cam_imu_) {
+      const Eigen::Matrix3d R = q_cam_imu_->toRotationMatrix();
+      d["R_cam_imu"] = {{R(0, 0), R(0, 1), R(0, 2)}, {R(1, 0), R(1, 1), R(1, 2)},
+                        {R(2, 0), R(2, 1), R(2, 2)}};
+    }
+    d["models"] = model_counts_;
+    nlohmann::json resets = nlohmann::json::object();
+    for (const auto& [reason, ri] : resets_) resets[reason] = ri.count;
+    d["resets"] = resets;
+    d["init_entries"] = {{"regions", init_.regions.size()},
+                         {"planar_targets", init_.planar_targets.size()},
+                         {"anchors", init_.anchors.size()}};
+    d["messages"] = notes_.lines;
+    std::string err;
+    if (!imt::writeJsonFile(args_.out_dir + "/summary.json", summary.toJson(), &err)) fail(err);
   }
-  d["models"] = model_counts;
-  nlohmann::json reset_counts = nlohmann::json::object();
-  for (const auto& [reason, ri] : resets) reset_counts[reason] = ri.count;
-  d["resets"] = reset_counts;
-  d["init_entries"] = {{"regions", init.regions.size()},
-                       {"planar_targets", init.planar_targets.size()},
-                       {"anchors", init.anchors.size()}};
-  d["messages"] = notes.lines;
-  if (!imt::writeJsonFile(dir + "summary.json", summary.toJson(), &err)) fail(err);
 
-  for (const std::string& line : notes.lines) std::fprintf(stderr, "track_bag: %s\n", line.c_str());
-  if (!args.quiet && isatty(STDERR_FILENO))
-    std::fprintf(stderr, "track_bag: %zu frames in %.2f s (%.1f frames/s); results in %s\n", frames,
-                 summary.seconds, summary.seconds > 0 ? frames / summary.seconds : 0.0,
-                 args.out_dir.c_str());
-  return 0;
-}
+  std::string hfov() const { return imt::formatShortest(config_.pipeline.default_hfov_deg); }
+
+  const Args& args_;
+  Stopwatch total_clock_;
+  Notes notes_;
+  // Inputs.
+  std::string config_path_;
+  imt::Config config_;
+  imt::InitSpec init_;
+  imt::BagInput input_;
+  imt::CameraIntrinsics k_info_;  // from camera_info; valid = false without one
+  std::string imu_frame_, tf_why_;
+  std::optional<Eigen::Quaterniond> q_cam_imu_;
+  // Outputs.
+  imt::CsvWriter camera_csv_, regions_csv_, targets_csv_, anchors_csv_;
+  std::unique_ptr<rosbag::Bag> out_bag_;
+  // The run.
+  std::unique_ptr<imt::Pipeline> pipeline_;
+  std::unique_ptr<Progress> progress_;
+  StderrCapture capture_;
+  cv::Size intrinsics_size_;
+  std::string intrinsics_source_ = "none";
+  bool size_warned_ = false;
+  size_t frames_ = 0;
+  std::map<std::string, double> stage_seconds_;
+  std::map<std::string, int> model_counts_;
+  std::map<std::string, ResetInfo> resets_;
+  int imu_used_ = 0, imu_dropped_ = 0;
+  double imu_first_dropped_ = 0;
+  int decoder_warnings_ = 0;
+  std::string first_decoder_warning_;
+  double play_seconds_ = 0, seconds_ = 0;
+};
 
 }  // namespace
 
 int main(int argc, char** argv) {
+  console_bridge::useOutputHandler(&libraryLog());
   auto error = [](const std::string& message) {
     std::string line = message;
+    if (!libraryLog().messages.empty()) line += " [" + libraryLog().messages.front() + "]";
     for (char& c : line)
       if (c == '\n' || c == '\r') c = ' ';
     std::fprintf(stderr, "track_bag: error: %s\n", line.c_str());
@@ -575,7 +658,7 @@ int main(int argc, char** argv) {
       std::fputs(kUsage, stdout);
       return 0;
     }
-    return run(args);
+    return TrackBagRun(args).run();
   } catch (const Failure& f) {
     error(f.message);
     return f.status;

@@ -791,6 +791,11 @@ std::vector<BadCase> badCases() {
         return "--bag " + q(good) + " --out-dir " + q(d + "/o") + " --out-bag " + q(d + "/no/such/dir/out.bag");
       },
       "cannot create --out-bag '");
+  add("out_bag_is_the_input", [](D d, D good) {
+        fs::copy_file(good, d + "/copy.bag", fs::copy_options::overwrite_existing);
+        return "--bag " + q(d + "/copy.bag") + " --out-dir " + q(d + "/o") + " --out-bag " + q(d + "/./copy.bag");
+      },
+      "/./copy.bag' is the input bag");
   return v;
 }
 

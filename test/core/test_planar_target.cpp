@@ -3,6 +3,7 @@
 // by x2, features with persistent IDs and 0.15 px noise, an occluder sweeping
 // across. Only feature IDs and positions reach the tracker.
 #include "instant_motion_tracking/core/planar_target.h"
+#include "instant_motion_tracking/core/planar_target_manager.h"
 
 #include <gtest/gtest.h>
 #include <opencv2/imgproc.hpp>
@@ -199,6 +200,32 @@ TEST(PlanarTarget, ChainedHomographyForComparison) {
               percentile(h.corner_err, 0.95), h.corner_err.back());
   // Chained homographies accumulate drift; the rigid pose does not (paper, Fig. 2).
   EXPECT_GT(h.corner_err.back(), p.corner_err.back());
+}
+
+TEST(PlanarTargetManager, TargetGivenMidSequenceIsTrackedBothWays) {
+  const Scene sc = makeScene(120, false);
+  MotionCache cache(0.0);  // keep everything, as track_bag does
+  PlanarTargetManager m{PlanarTargetOptions()};
+  std::string err;
+  for (const MotionData& md : sc.md) ASSERT_TRUE(cache.push(md, &err));
+  uint32_t id = 0;
+  ASSERT_TRUE(m.add(0, sc.md[60].stamp, sc.corners[60], kTw, kTh, intrinsics(), cache, &id, &err)) << err;
+  EXPECT_EQ(id, 1u);
+  std::vector<double> e;
+  for (uint64_t seq = cache.firstSeq(); seq <= cache.lastSeq(); ++seq) {
+    PlanarTargetState s;
+    ASSERT_TRUE(m.stateAt(id, seq, cache, &s, &err)) << err;
+    EXPECT_DOUBLE_EQ(s.stamp, cache.at(seq).stamp);
+    e.push_back(cornerRms(s.corners, sc.corners[seq - cache.firstSeq()]));
+  }
+  // Same bar as the forward-only test: no drift in either direction.
+  EXPECT_LT(percentile(e, 0.5), 0.5);
+  EXPECT_LT(e.front(), 1.0);
+  EXPECT_LT(e.back(), 1.0);
+  EXPECT_FALSE(m.add(1, 0, sc.corners[60], kTw, kTh, intrinsics(), cache, &id, &err));
+  EXPECT_NE(err.find("already tracked"), std::string::npos);
+  EXPECT_FALSE(m.remove(9, &err));
+  EXPECT_NE(err.find("unknown planar target id 9"), std::string::npos);
 }
 
 TEST(PlanarTarget, BadQuadsAndSizesAreRefused) {

@@ -87,7 +87,8 @@ std::string PipelineOptions::validate() const {
   std::string e = c.error();
   if (!e.empty()) return e.substr(1);  // drop the empty scope's dot
   e = motion_analysis.validate();
-  return e.empty() ? region_tracking.validate() : e;
+  if (e.empty()) e = region_tracking.validate();
+  return e.empty() ? planar_tracking.validate() : e;
 }
 
 }  // namespace imt

@@ -9,6 +9,7 @@
 //   template <class S> void section(const char* name, S& sub);       // nested struct
 #pragma once
 
+#include "instant_motion_tracking/core/planar_target.h"
 #include "instant_motion_tracking/core/region_tracker_options.h"
 
 #include <string>
@@ -109,6 +110,7 @@ struct PipelineOptions {
   double default_hfov_deg = 60.0;  // horizontal field of view assumed without camera_info (deg)
   MotionAnalysisOptions motion_analysis;
   RegionTrackerOptions region_tracking;
+  PlanarTargetOptions planar_tracking;
 
   template <class V>
   void visit(V& v) {
@@ -116,6 +118,7 @@ struct PipelineOptions {
     v("default_hfov_deg", default_hfov_deg, "horizontal field of view without camera_info (deg)");
     v.section("motion_analysis", motion_analysis);
     v.section("region_tracking", region_tracking);
+    v.section("planar_tracking", planar_tracking);
   }
   std::string validate() const;
 };

@@ -1,7 +1,7 @@
 // The one pipeline object used by the nodelets and by track_bag, so that what
 // runs on a rosbag offline is exactly what runs live. It owns the motion
-// analysis and the region tracking (planar targets and anchors arrive with
-// their issues), and times each stage.
+// analysis, the region tracking and the planar-target tracking (anchors
+// arrive with their issue), and times each stage.
 //
 // Usage:
 //   imt::Pipeline pipeline(options);              // options.validate() must be empty
@@ -13,6 +13,7 @@
 
 #include "instant_motion_tracking/core/motion_analysis.h"
 #include "instant_motion_tracking/core/options.h"
+#include "instant_motion_tracking/core/planar_target_manager.h"
 #include "instant_motion_tracking/core/region_manager.h"
 #include "instant_motion_tracking/core/types.h"
 
@@ -24,7 +25,8 @@ namespace imt {
 
 struct FrameResult {
   MotionData motion;
-  std::vector<RegionState> regions;  // every region's state at this frame
+  std::vector<RegionState> regions;         // every region's state at this frame
+  std::vector<PlanarTargetState> targets;   // every planar target's state at this frame
 };
 
 // Accumulated wall time per stage (s) and counts.
@@ -50,6 +52,9 @@ class Pipeline {
   const std::string& lastReset() const { return analyzer_.lastReset(); }
   // The regions over the motion-data cache (add, remove, seek).
   RegionManager& regions() { return regions_; }
+  // The planar targets over the same cache (regions().cache()).
+  PlanarTargetManager& planarTargets() { return targets_; }
+  const MotionCache& cache() const { return regions_.cache(); }
   const StageTimes& times() const { return times_; }
   const PipelineOptions& options() const { return options_; }
 
@@ -59,6 +64,7 @@ class Pipeline {
   std::vector<ImuSample> imu_;
   MotionAnalyzer analyzer_;
   RegionManager regions_;
+  PlanarTargetManager targets_;
   StageTimes times_;
 };
 

@@ -1,0 +1,553 @@
+// SceneGenerator: options validation, textures, rendering of frames, ground
+// truth and the IMU stream. Layouts and trajectories: scene_presets.cpp;
+// rasterisation: scene_render.cpp; textures: scene_texture.cpp.
+#include "instant_motion_tracking/core/scene.h"
+
+#include "scene_internal.h"
+
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <set>
+#include <sstream>
+
+namespace imt {
+
+using scene_detail::MipTexture;
+using scene_detail::PlaneView;
+using scene_detail::Polygon;
+
+namespace {
+
+constexpr double kGravity = 9.81;  // m/s^2
+
+// Collects the first problem as "field: message".
+class Checker {
+ public:
+  template <class T>
+  void check(bool ok, const std::string& field, const std::string& what, const T& value) {
+    if (ok || !error_.empty()) return;
+    std::ostringstream s;
+    s << field << " " << what << " (got " << value << ")";
+    error_ = s.str();
+  }
+  void range(const std::string& field, double v, double lo, double hi) {
+    std::ostringstream w;
+    w << "must be in [" << lo << ", " << hi << "]";
+    check(std::isfinite(v) && v >= lo && v <= hi, field, w.str(), v);
+  }
+  void positive(const std::string& field, double v, double hi) {
+    std::ostringstream w;
+    w << "must be > 0 and <= " << hi;
+    check(std::isfinite(v) && v > 0 && v <= hi, field, w.str(), v);
+  }
+  const std::string& error() const { return error_; }
+
+ private:
+  std::string error_;
+};
+
+bool finitePose(const Eigen::Isometry3d& T) {
+  return T.matrix().allFinite() &&
+         (T.linear().transpose() * T.linear() - Eigen::Matrix3d::Identity()).norm() < 1e-6 &&
+         T.linear().determinant() > 0;
+}
+
+// Procedural texture size for a plane: tiled planes get square textures
+// (auto 2048); others `texture_size` along the longer side (auto ~400 px/m,
+// 512..3072) and the other side in proportion (multiples of 16 keep the
+// octave noise periodic).
+cv::Size textureSize(const ScenePlane& p) {
+  if (p.texture_tile_m > 0) {
+    const int n = p.texture_size > 0 ? p.texture_size : 2048;
+    return cv::Size(n, n);
+  }
+  const double longer = std::max(p.width_m, p.height_m);
+  int n = p.texture_size;
+  if (n <= 0) n = std::clamp(static_cast<int>(std::lround(400 * longer / 64.0)) * 64, 512, 3072);
+  const int m = std::max(
+      16, static_cast<int>(std::lround(n * std::min(p.width_m, p.height_m) / longer / 16)) * 16);
+  return p.width_m >= p.height_m ? cv::Size(n, m) : cv::Size(m, n);
+}
+
+}  // namespace
+
+// ---------------------------------------------------------------------------
+// SceneOptions::validate
+
+std::string SceneOptions::validate() const {
+  Checker c;
+  if (planes.empty()) {
+    // The preset's layout will be used: it only makes sense with its trajectory.
+    const std::optional<SceneOptions> p = fromPreset(preset);
+    c.check(p.has_value(), "preset", "is not a known preset (and planes is empty)", preset);
+    if (p) {
+      c.check(p->trajectory == trajectory, "trajectory",
+              "does not suit the layout of preset '" + preset + "' (use SceneOptions::fromPreset)",
+              trajectory);
+    }
+  }
+  c.positive("duration", duration, 24 * 3600.0);
+  c.positive("fps", fps, 1000.0);
+  c.range("width", width, 16, 8192);
+  c.range("height", height, 16, 8192);
+  c.check(hfov_deg > 1 && hfov_deg < 179, "hfov_deg", "must be in (1, 179)", hfov_deg);
+  c.range("start_time", start_time, 0, 1e10);
+  c.range("supersample", supersample, 1, 8);
+  c.range("noise_sigma", noise_sigma, 0, 100);
+  c.range("brightness_amplitude", brightness_amplitude, 0, 0.9);
+  c.positive("brightness_period", brightness_period, 1e6);
+  c.range("exposure", exposure, 0, fps > 0 ? 1.0 / fps : 0.0);
+  c.range("blur_samples", blur_samples, exposure > 0 ? 2 : 1, 64);
+  c.range("void_gray", void_gray, 0, 255);
+  c.positive("imu_rate", imu_rate, 10000.0);
+  c.range("gyro_noise", gyro_noise, 0, 10);
+  c.range("accel_noise", accel_noise, 0, 100);
+  c.check(gyro_bias.allFinite() && gyro_bias.norm() < 10, "gyro_bias",
+          "must be finite and < 10 rad/s", gyro_bias.transpose());
+  c.check(q_cam_imu.coeffs().allFinite() && std::abs(q_cam_imu.norm() - 1) < 1e-3, "q_cam_imu",
+          "must be a unit quaternion", q_cam_imu.coeffs().transpose());
+  c.check(scene_detail::knownTrajectory(trajectory), "trajectory", "is not a known trajectory",
+          trajectory);
+  c.range("trajectory_amplitude", trajectory_amplitude, 0, 3);
+  std::set<uint32_t> region_ids, target_ids, anchor_ids;
+  for (size_t i = 0; i < planes.size(); ++i) {
+    const ScenePlane& p = planes[i];
+    const std::string f = "planes[" + std::to_string(i) + "].";
+    c.positive(f + "width_m", p.width_m, 1e4);
+    c.positive(f + "height_m", p.height_m, 1e4);
+    c.check(finitePose(p.T_world_plane), f + "T_world_plane", "must be a finite rigid transform",
+            p.T_world_plane.matrix().row(0));
+    c.check(scene_detail::knownPlaneMotion(p.motion), f + "motion",
+            "must be one of \"\", slide, slide_rotate, approach", p.motion);
+    c.positive(f + "motion_period", p.motion_period, 1e6);
+    c.range(f + "motion_amplitude", p.motion_amplitude, -100, 100);
+    c.range(f + "motion_phase", p.motion_phase, -1e6, 1e6);
+    c.range(f + "flat_gray", p.flat_gray, 0, 255);
+    c.range(f + "texture_tile_m", p.texture_tile_m, 0, 1e4);
+    c.check(p.texture_tile_m == 0 || std::max(p.width_m, p.height_m) / p.texture_tile_m < 1000,
+            f + "texture_tile_m", "gives more than 1000 tiles along the plane", p.texture_tile_m);
+    c.check(p.texture_size == 0 || (p.texture_size >= 16 && p.texture_size <= 8192),
+            f + "texture_size", "must be 0 (auto) or in [16, 8192]", p.texture_size);
+    if (p.kind == ScenePlane::Kind::kTarget) {
+      c.check(p.id != 0, f + "id", "must be non-zero for a target", p.id);
+      c.check(target_ids.insert(p.id).second, f + "id", "duplicates another target's id", p.id);
+    } else if (p.id != 0) {
+      c.check(region_ids.insert(p.id).second, f + "id", "duplicates another region's id", p.id);
+    }
+  }
+  for (size_t i = 0; i < anchors.size(); ++i) {
+    const SceneAnchor& a = anchors[i];
+    const std::string f = "anchors[" + std::to_string(i) + "].";
+    c.check(a.id != 0, f + "id", "must be non-zero", a.id);
+    c.check(anchor_ids.insert(a.id).second, f + "id", "duplicates another anchor's id", a.id);
+    c.check(a.p_world.allFinite(), f + "p_world", "must be finite", a.p_world.transpose());
+    c.range(f + "placed_at", a.placed_at, 0, duration);
+  }
+  return c.error();
+}
+
+// ---------------------------------------------------------------------------
+// SceneGenerator
+
+struct SceneGenerator::Impl {
+  CameraIntrinsics K;
+  std::vector<std::shared_ptr<const MipTexture>> textures;  // per plane; null = flat
+  int background = -1;  // the single background plane, -1 if none or several
+  std::vector<Eigen::Matrix3d> R_world_anchor;  // per anchor, fixed at placement
+};
+
+SceneGenerator::SceneGenerator(const SceneOptions& options) : options_(options) {}
+SceneGenerator::~SceneGenerator() = default;
+
+std::unique_ptr<SceneGenerator> SceneGenerator::create(const SceneOptions& options,
+                                                       std::string* error) {
+  auto fail = [&](const std::string& e) {
+    if (error) *error = e;
+    return std::unique_ptr<SceneGenerator>();
+  };
+  const std::string e = options.validate();
+  if (!e.empty()) return fail(e);
+  SceneOptions o = options;
+  if (o.planes.empty()) {
+    const bool keep_anchors = !o.anchors.empty();
+    const std::vector<SceneAnchor> anchors = o.anchors;
+    scene_detail::presetLayout(o.preset, &o);
+    if (keep_anchors) o.anchors = anchors;
+    const std::string e2 = o.validate();
+    if (!e2.empty()) return fail(e2);
+  }
+  o.q_cam_imu.normalize();
+
+  auto impl = std::make_shared<Impl>();
+  impl->K = CameraIntrinsics::fromFieldOfView(o.width, o.height, o.hfov_deg);
+  size_t next_file = 0, backgrounds = 0;
+  for (size_t i = 0; i < o.planes.size(); ++i) {
+    const ScenePlane& p = o.planes[i];
+    if (p.kind == ScenePlane::Kind::kBackground) {
+      ++backgrounds;
+      impl->background = static_cast<int>(i);
+    }
+    if (p.isFlat()) {
+      impl->textures.emplace_back();
+      continue;
+    }
+    std::string file = p.texture_file;
+    std::string field = "planes[" + std::to_string(i) + "].texture_file";
+    if (file.empty() && !o.texture_files.empty() &&
+        (p.kind == ScenePlane::Kind::kBackground || p.kind == ScenePlane::Kind::kCard)) {
+      field = "texture_files[" + std::to_string(next_file % o.texture_files.size()) + "]";
+      file = o.texture_files[next_file++ % o.texture_files.size()];
+    }
+    const bool periodic = p.texture_tile_m > 0;
+    if (!file.empty()) {
+      const cv::Mat tex = cv::imread(file, cv::IMREAD_GRAYSCALE);
+      if (tex.empty() || tex.cols < 2 || tex.rows < 2)
+        return fail(field + " cannot be read as an image: '" + file + "'");
+      impl->textures.push_back(
+          std::make_shared<const MipTexture>(scene_detail::buildMips(tex, periodic)));
+    } else {
+      impl->textures.push_back(scene_detail::proceduralMips(
+          textureSize(p), scene_detail::mixSeed(o.seed, p.texture_seed), periodic));
+    }
+  }
+  if (backgrounds != 1) impl->background = -1;
+
+  std::unique_ptr<SceneGenerator> gen(new SceneGenerator(o));
+  for (const SceneAnchor& a : o.anchors) {
+    // Anchor frame: z up, x the viewing direction at placement levelled, y = z x x.
+    const Eigen::Matrix3d R_wc = gen->T_world_cam(a.placed_at).linear();
+    Eigen::Vector3d x = R_wc.col(2);
+    x.z() = 0;
+    if (x.norm() < 1e-6) {  // looking straight down/up: use the image's up direction
+      x = -R_wc.col(1);
+      x.z() = 0;
+    }
+    x.normalize();
+    Eigen::Matrix3d R;
+    R.col(0) = x;
+    R.col(2) = Eigen::Vector3d::UnitZ();
+    R.col(1) = R.col(2).cross(x);
+    impl->R_world_anchor.push_back(R);
+  }
+  gen->impl_ = impl;
+  return gen;
+}
+
+int SceneGenerator::frameCount() const {
+  return std::max(1, static_cast<int>(std::floor(options_.duration * options_.fps + 1e-6)));
+}
+
+double SceneGenerator::frameStamp(int i) const { return options_.start_time + i / options_.fps; }
+
+CameraIntrinsics SceneGenerator::intrinsics() const { return impl_->K; }
+
+Eigen::Isometry3d SceneGenerator::T_world_cam(double t) const {
+  return scene_detail::trajectoryPose(options_.trajectory, options_.trajectory_amplitude, t);
+}
+
+Eigen::Isometry3d SceneGenerator::T_world_plane(size_t plane, double t) const {
+  const ScenePlane& p = options_.planes.at(plane);
+  return p.T_world_plane * scene_detail::planeMotion(p, t);
+}
+
+double SceneGenerator::brightnessGain(double t) const {
+  return 1.0 + options_.brightness_amplitude * std::sin(2 * M_PI * t / options_.brightness_period);
+}
+
+std::optional<cv::Point2d> SceneGenerator::project(const Eigen::Vector3d& p_world, double t) const {
+  const Eigen::Vector3d p = T_world_cam(t).inverse() * p_world;
+  if (p.z() <= 0) return std::nullopt;
+  const CameraIntrinsics& K = impl_->K;
+  return cv::Point2d(K.fx * p.x() / p.z() + K.cx, K.fy * p.y() / p.z() + K.cy);
+}
+
+namespace {
+
+// Painter's order: backgrounds first, the rest far to near (by centre depth),
+// then fixed up so that a plane whose centre lies on the camera's side of
+// another plane is painted after it.
+std::vector<size_t> drawOrder(const std::vector<ScenePlane>& planes,
+                              const std::vector<Eigen::Isometry3d>& T_cam_plane) {
+  std::vector<size_t> order(planes.size());
+  for (size_t i = 0; i < order.size(); ++i) order[i] = i;
+  auto isBackground = [&](size_t i) { return planes[i].kind == ScenePlane::Kind::kBackground; };
+  std::stable_sort(order.begin(), order.end(), [&](size_t a, size_t b) {
+    if (isBackground(a) != isBackground(b)) return isBackground(a);
+    return T_cam_plane[a].translation().z() > T_cam_plane[b].translation().z();
+  });
+  // `a` must precede `b`: b's centre is on the camera's side of a's plane.
+  auto precedes = [&](size_t a, size_t b) {
+    const Eigen::Isometry3d T_a_cam = T_cam_plane[a].inverse();
+    const double cam = T_a_cam.translation().z();
+    const double other = (T_a_cam * T_cam_plane[b].translation()).z();
+    return std::abs(other) > 1e-6 && (cam > 0) == (other > 0);
+  };
+  for (size_t pass = 0; pass < order.size(); ++pass) {
+    bool swapped = false;
+    for (size_t i = 0; i + 1 < order.size(); ++i) {
+      const size_t a = order[i], b = order[i + 1];
+      if (isBackground(a) != isBackground(b)) continue;
+      if (precedes(b, a) && !precedes(a, b)) {
+        std::swap(order[i], order[i + 1]);
+        swapped = true;
+      }
+    }
+    if (!swapped) break;
+  }
+  return order;
+}
+
+}  // namespace
+
+cv::Mat SceneGenerator::renderAt(double t) const {
+  const SceneOptions& o = options_;
+  const int ss = o.supersample;
+  const int cw = o.width * ss, ch = o.height * ss;
+  Eigen::Matrix3d Kc = impl_->K.K();
+  Kc.topRows<2>() *= ss;
+
+  auto renderInstant = [&](double tt) {
+    cv::Mat canvas(ch, cw, CV_32FC1, cv::Scalar(o.void_gray));
+    const Eigen::Isometry3d T_cam_world = T_world_cam(tt).inverse();
+    std::vector<Eigen::Isometry3d> T_cam_plane(o.planes.size());
+    for (size_t i = 0; i < o.planes.size(); ++i)
+      T_cam_plane[i] = T_cam_world * T_world_plane(i, tt);
+    for (size_t i : drawOrder(o.planes, T_cam_plane)) {
+      const ScenePlane& p = o.planes[i];
+      const PlaneView view =
+          scene_detail::makePlaneView(Kc, T_cam_plane[i], p.width_m, p.height_m, cw, ch);
+      scene_detail::PlaneLook look;
+      look.texture = impl_->textures[i].get();
+      look.width_m = p.width_m;
+      look.height_m = p.height_m;
+      look.tile_w_m = p.texture_tile_m;
+      look.flat_gray = p.flat_gray;
+      scene_detail::paintPlane(view, look, &canvas);
+    }
+    if (ss > 1) cv::resize(canvas, canvas, cv::Size(o.width, o.height), 0, 0, cv::INTER_AREA);
+    return canvas;
+  };
+
+  cv::Mat img;
+  if (o.exposure > 0) {
+    const int n = o.blur_samples;
+    img = cv::Mat::zeros(o.height, o.width, CV_32FC1);
+    for (int k = 0; k < n; ++k) img += renderInstant(t + o.exposure * (double(k) / (n - 1) - 0.5));
+    img *= 1.0 / n;
+  } else {
+    img = renderInstant(t);
+  }
+  img *= brightnessGain(t);
+  if (o.noise_sigma > 0) {
+    cv::RNG rng(
+        scene_detail::mixSeed(o.seed, static_cast<uint64_t>(std::llround(t * o.fps)) + 0x5eed));
+    cv::Mat noise(img.size(), CV_32FC1);
+    rng.fill(noise, cv::RNG::NORMAL, 0.0, o.noise_sigma);
+    img += noise;
+  }
+  cv::Mat out;
+  img.convertTo(out, CV_8UC1);  // rounds and saturates
+  return out;
+}
+
+cv::Mat SceneGenerator::renderFrame(int i) const { return renderAt(i / options_.fps); }
+
+std::optional<Eigen::Matrix3d> SceneGenerator::backgroundHomography(int from, int to) const {
+  if (impl_->background < 0) return std::nullopt;
+  const size_t b = static_cast<size_t>(impl_->background);
+  const Eigen::Matrix3d K = impl_->K.K();
+  auto G = [&](int i) {  // plane metres -> image pixels (homogeneous)
+    const double t = i / options_.fps;
+    const Eigen::Isometry3d T = T_world_cam(t).inverse() * T_world_plane(b, t);
+    Eigen::Matrix3d M;
+    M << T.linear().col(0), T.linear().col(1), T.translation();
+    return Eigen::Matrix3d(K * M);
+  };
+  Eigen::Matrix3d H = G(to) * G(from).inverse();
+  H /= H(2, 2);
+  return H;
+}
+
+namespace {
+
+// Area of `P` covered by the union of the occluders' visible polygons
+// (inclusion-exclusion over intersections of convex polygons).
+double coveredArea(const Polygon& P, const std::vector<const PlaneView*>& occluders) {
+  const size_t n = std::min<size_t>(occluders.size(), 12);
+  double total = 0;
+  for (uint32_t mask = 1; mask < (1u << n); ++mask) {
+    Polygon Q = P;
+    int bits = 0;
+    for (size_t k = 0; k < n && Q.size() >= 3; ++k) {
+      if (!(mask & (1u << k))) continue;
+      ++bits;
+      for (const scene_detail::HalfPlane& h : occluders[k]->bounds)
+        Q = scene_detail::clipPolygon(Q, h);
+    }
+    if (Q.size() < 3) continue;
+    total += (bits % 2 ? 1 : -1) * scene_detail::polygonArea(Q);
+  }
+  return std::max(0.0, total);
+}
+
+// Projection of a plane rectangle clipped to z >= z_near: its image polygon
+// (unbounded parts behind the camera cut off).
+Polygon projectedRect(const Eigen::Matrix3d& K, const Eigen::Isometry3d& T_cam_plane, double w,
+                      double h) {
+  constexpr double kNear = 1e-3;  // m
+  std::vector<Eigen::Vector3d> poly;
+  for (const auto& c : {Eigen::Vector2d(-w / 2, -h / 2), Eigen::Vector2d(w / 2, -h / 2),
+                        Eigen::Vector2d(w / 2, h / 2), Eigen::Vector2d(-w / 2, h / 2)})
+    poly.push_back(T_cam_plane * Eigen::Vector3d(c.x(), c.y(), 0));
+  std::vector<Eigen::Vector3d> clipped;
+  for (size_t i = 0; i < poly.size(); ++i) {
+    const Eigen::Vector3d &p = poly[i], &q = poly[(i + 1) % poly.size()];
+    if (p.z() >= kNear) clipped.push_back(p);
+    if ((p.z() >= kNear) != (q.z() >= kNear))
+      clipped.push_back(p + (kNear - p.z()) / (q.z() - p.z()) * (q - p));
+  }
+  Polygon out;
+  for (const Eigen::Vector3d& p : clipped) out.push_back((K * (p / p.z())).head<2>());
+  return out;
+}
+
+cv::Rect2d boundingBox(const Polygon& poly) {
+  if (poly.empty()) return cv::Rect2d();
+  double x0 = 1e300, y0 = 1e300, x1 = -1e300, y1 = -1e300;
+  for (const Eigen::Vector2d& p : poly) {
+    x0 = std::min(x0, p.x()), x1 = std::max(x1, p.x());
+    y0 = std::min(y0, p.y()), y1 = std::max(y1, p.y());
+  }
+  return cv::Rect2d(x0, y0, x1 - x0, y1 - y0);
+}
+
+}  // namespace
+
+FrameTruth SceneGenerator::frameTruth(int i) const {
+  const SceneOptions& o = options_;
+  const double t = i / o.fps;
+  FrameTruth gt;
+  gt.index = i;
+  gt.stamp = frameStamp(i);
+  gt.T_world_cam = T_world_cam(t);
+  gt.brightness_gain = brightnessGain(t);
+  if (i > 0) gt.background_homography = backgroundHomography(i - 1, i);
+
+  const Eigen::Matrix3d K = impl_->K.K();
+  const Eigen::Isometry3d T_cam_world = gt.T_world_cam.inverse();
+  const size_t n = o.planes.size();
+  std::vector<Eigen::Isometry3d> T_cam_plane(n);
+  std::vector<PlaneView> views(n);
+  for (size_t k = 0; k < n; ++k) {
+    T_cam_plane[k] = T_cam_world * T_world_plane(k, t);
+    views[k] = scene_detail::makePlaneView(K, T_cam_plane[k], o.planes[k].width_m,
+                                           o.planes[k].height_m, o.width, o.height);
+  }
+  const std::vector<size_t> order = drawOrder(o.planes, T_cam_plane);
+  const cv::Rect2d image(0, 0, o.width, o.height);
+
+  for (size_t pos = 0; pos < order.size(); ++pos) {
+    const size_t k = order[pos];
+    const ScenePlane& p = o.planes[k];
+    if (p.id == 0) continue;
+    const Polygon full = projectedRect(K, T_cam_plane[k], p.width_m, p.height_m);
+    const double full_area = scene_detail::polygonArea(full);
+    const Polygon& seen = views[k].visible;
+    const double seen_area = views[k].empty ? 0 : scene_detail::polygonArea(seen);
+    double occluded = 0;
+    if (seen_area > 0) {
+      std::vector<const PlaneView*> nearer;
+      for (size_t q = pos + 1; q < order.size(); ++q)
+        if (!views[order[q]].empty && !views[order[q]].visible.empty())
+          nearer.push_back(&views[order[q]]);
+      occluded = coveredArea(seen, nearer) / seen_area;
+    }
+    if (p.kind == ScenePlane::Kind::kTarget) {
+      FrameTruth::Target tg;
+      tg.id = p.id;
+      tg.width_m = p.width_m;
+      tg.height_m = p.height_m;
+      tg.T_cam_target = T_cam_plane[k];
+      const double hw = p.width_m / 2, hh = p.height_m / 2;
+      const Eigen::Vector3d corners[4] = {{-hw, -hh, 0}, {hw, -hh, 0}, {hw, hh, 0}, {-hw, hh, 0}};
+      for (int c = 0; c < 4; ++c) {
+        const Eigen::Vector3d q = K * (T_cam_plane[k] * corners[c]);
+        tg.corners[c] = cv::Point2d(q.x() / q.z(), q.y() / q.z());
+      }
+      tg.visible_fraction = full_area > 0 ? std::min(1.0, seen_area / full_area) : 0;
+      tg.occluded_fraction = occluded;
+      gt.targets.push_back(tg);
+    } else {
+      FrameTruth::Region r;
+      r.id = p.id;
+      r.featureless = p.isFlat();
+      r.box_unclipped = boundingBox(full);
+      r.box = r.box_unclipped & image;
+      const double a = r.box_unclipped.area();
+      r.visible_fraction = a > 0 ? r.box.area() / a : 0;
+      r.occluded_fraction = occluded;
+      gt.regions.push_back(r);
+    }
+  }
+  std::sort(gt.regions.begin(), gt.regions.end(),
+            [](const auto& a, const auto& b) { return a.id < b.id; });
+  std::sort(gt.targets.begin(), gt.targets.end(),
+            [](const auto& a, const auto& b) { return a.id < b.id; });
+
+  for (size_t k = 0; k < o.anchors.size(); ++k) {
+    const SceneAnchor& a = o.anchors[k];
+    FrameTruth::Anchor an;
+    an.id = a.id;
+    an.placed = t >= a.placed_at - 1e-9;
+    Eigen::Isometry3d T_world_anchor = Eigen::Isometry3d::Identity();
+    T_world_anchor.linear() = impl_->R_world_anchor[k];
+    T_world_anchor.translation() = a.p_world;
+    an.T_cam_anchor = T_cam_world * T_world_anchor;
+    const Eigen::Vector3d p = an.T_cam_anchor.translation();
+    const Eigen::Vector3d q = K * p;
+    an.pixel = cv::Point2d(q.x() / q.z(), q.y() / q.z());
+    an.in_view = p.z() > 0 && an.pixel.x >= 0 && an.pixel.x < o.width && an.pixel.y >= 0 &&
+                 an.pixel.y < o.height;
+    gt.anchors.push_back(an);
+  }
+  return gt;
+}
+
+std::vector<ImuSample> SceneGenerator::imuSamples() const {
+  const SceneOptions& o = options_;
+  const Eigen::Matrix3d R_cam_imu = o.q_cam_imu.toRotationMatrix();
+  const Eigen::Vector3d g_world(0, 0, -kGravity);
+  const int n = static_cast<int>(std::floor(o.duration * o.imu_rate + 1e-6)) + 1;
+  cv::RNG rng(scene_detail::mixSeed(o.seed, 0x1a1a1a));
+  auto R_world_imu = [&](double t) { return Eigen::Matrix3d(T_world_cam(t).linear() * R_cam_imu); };
+  auto position = [&](double t) { return Eigen::Vector3d(T_world_cam(t).translation()); };
+  constexpr double hr = 1e-4;  // s, central difference step for the rotation
+  constexpr double hp = 1e-3;  // s, for the position's second derivative
+  std::vector<ImuSample> out;
+  out.reserve(n);
+  for (int k = 0; k < n; ++k) {
+    const double t = k / o.imu_rate;
+    ImuSample s;
+    s.stamp = o.start_time + t;
+    const Eigen::Matrix3d R = R_world_imu(t);
+    // Body rate: R(t-h)^T R(t+h) = exp([w] 2h) + O(h^3).
+    const Eigen::AngleAxisd d(R_world_imu(t - hr).transpose() * R_world_imu(t + hr));
+    s.gyro = d.axis() * d.angle() / (2 * hr) + o.gyro_bias;
+    const Eigen::Vector3d a_world =
+        (position(t + hp) - 2 * position(t) + position(t - hp)) / (hp * hp);
+    s.accel = R.transpose() * (a_world - g_world);
+    for (int c = 0; c < 3; ++c) {
+      s.gyro(c) += rng.gaussian(o.gyro_noise);
+      s.accel(c) += rng.gaussian(o.accel_noise);
+    }
+    s.orientation = Eigen::Quaterniond(R).normalized();
+    s.has_orientation = true;
+    out.push_back(s);
+  }
+  return out;
+}
+
+}  // namespace imt

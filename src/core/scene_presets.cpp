@@ -1,0 +1,286 @@
+// Scene layouts (presets), camera trajectories and plane motions of the scene
+// generator. Every curve is smooth (sums of sinusoids, C2 smootherstep ramps)
+// so the IMU stream derived from it is consistent.
+#include "scene_internal.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace imt {
+namespace scene_detail {
+namespace {
+
+constexpr double kDeg = M_PI / 180.0;
+
+double wave(double amplitude, double period, double phase, double t) {
+  return amplitude * std::sin(2.0 * M_PI * t / period + phase);
+}
+
+// 0 -> 1 with zero first and second derivatives at both ends (C2).
+double smootherstep(double x) {
+  x = std::clamp(x, 0.0, 1.0);
+  return x * x * x * (x * (6 * x - 15) + 10);
+}
+
+// 0 before t0, ramps to 1 over `ramp` s, holds `hold` s, ramps back to 0.
+double bump(double t, double t0, double ramp, double hold) {
+  return smootherstep((t - t0) / ramp) - smootherstep((t - t0 - ramp - hold) / ramp);
+}
+
+// R_world_cam of an optical frame looking along `forward` with `up` upwards.
+Eigen::Matrix3d lookRotation(const Eigen::Vector3d& forward, const Eigen::Vector3d& up) {
+  const Eigen::Vector3d z = forward.normalized();
+  const Eigen::Vector3d x = z.cross(up).normalized();
+  Eigen::Matrix3d R;
+  R.col(0) = x;
+  R.col(1) = z.cross(x);
+  R.col(2) = z;
+  return R;
+}
+
+// Yaw (about the camera's up, -y), pitch (about x, positive looks up) and
+// roll (about the optical axis), applied in that order in the camera frame.
+Eigen::Matrix3d yawPitchRoll(double yaw, double pitch, double roll) {
+  return (Eigen::AngleAxisd(yaw, -Eigen::Vector3d::UnitY()) *
+          Eigen::AngleAxisd(pitch, Eigen::Vector3d::UnitX()) *
+          Eigen::AngleAxisd(roll, Eigen::Vector3d::UnitZ()))
+      .toRotationMatrix();
+}
+
+Eigen::Isometry3d pose(const Eigen::Matrix3d& R, const Eigen::Vector3d& p) {
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  T.linear() = R;
+  T.translation() = p;
+  return T;
+}
+
+// Wall scenes: the camera starts at the origin looking along +y at the wall.
+const Eigen::Matrix3d& wallView() {
+  static const Eigen::Matrix3d R = lookRotation(Eigen::Vector3d::UnitY(), Eigen::Vector3d::UnitZ());
+  return R;
+}
+
+// A plane facing the wall-scene camera (plane x = world x, plane y = world
+// down, z = world +y, away from the camera) with its centre at `c`.
+Eigen::Isometry3d facingCamera(const Eigen::Vector3d& c) { return pose(wallView(), c); }
+
+}  // namespace
+
+bool knownTrajectory(const std::string& name) {
+  const auto names = SceneOptions::trajectoryNames();
+  return std::find(names.begin(), names.end(), name) != names.end();
+}
+
+bool knownPlaneMotion(const std::string& name) {
+  return name.empty() || name == "slide" || name == "slide_rotate" || name == "approach";
+}
+
+Eigen::Isometry3d trajectoryPose(const std::string& name, double a, double t) {
+  if (name == "pan") {
+    const Eigen::Vector3d p(wave(0.5 * a, 8, 0, t), wave(0.6 * a, 9, 0.5, t),
+                            wave(0.15 * a, 11, 1.0, t));
+    return pose(
+        wallView() * yawPitchRoll(wave(6 * kDeg * a, 10, 0.3, t), wave(4 * kDeg * a, 12, 1.1, t),
+                                  wave(10 * kDeg * a, 7, 0, t)),
+        p);
+  }
+  if (name == "zoom") {
+    return pose(wallView(), Eigen::Vector3d(0, wave(0.6 * a, 9, 0.5, t), 0));
+  }
+  if (name == "planar") {
+    // Looks at a wandering point of the wall from a wandering position:
+    // viewing angles up to ~30 deg, so the homography has clear perspective.
+    const Eigen::Vector3d p(wave(0.8 * a, 9, 0, t), wave(0.5 * a, 11, 0.4, t),
+                            wave(0.4 * a, 13, 1.2, t));
+    const Eigen::Vector3d q(wave(0.3 * a, 7, 2.0, t), kWallDistance, wave(0.2 * a, 8, 0.3, t));
+    const Eigen::Matrix3d R = lookRotation(q - p, Eigen::Vector3d::UnitZ());
+    return pose(R * yawPitchRoll(0, 0, wave(15 * kDeg * a, 12, 0, t)), p);
+  }
+  if (name == "rotate") {
+    return pose(
+        wallView() * yawPitchRoll(wave(15 * kDeg * a, 9, 0, t), wave(10 * kDeg * a, 7, 0.6, t),
+                                  wave(12 * kDeg * a, 11, 1.3, t)),
+        Eigen::Vector3d::Zero());
+  }
+  if (name == "orbit") {
+    // Around the poster centre c: azimuth extremes (+-48 deg) come with the
+    // shortest distance (0.8 m), the farthest view (2.4 m) is frontal.
+    const Eigen::Vector3d c(0, kWallDistance, 0);
+    const double az = wave(48 * kDeg * a, 16, 0, t);
+    const double el = wave(20 * kDeg * a, 11, 0.7, t);
+    const double r = 1.6 + 0.8 * a * std::cos(2 * M_PI * t / 8);
+    const Eigen::Vector3d dir(std::sin(az) * std::cos(el), -std::cos(az) * std::cos(el),
+                              std::sin(el));
+    const Eigen::Vector3d p = c + r * dir;
+    const Eigen::Vector3d q =
+        c + Eigen::Vector3d(wave(0.08 * a, 5, 0, t), 0, wave(0.06 * a, 6, 1.0, t));
+    const Eigen::Matrix3d R = lookRotation(q - p, Eigen::Vector3d::UnitZ());
+    return pose(R * yawPitchRoll(0, 0, wave(30 * kDeg * a, 9, 0.4, t)), p);
+  }
+  if (name == "walk") {
+    // Heading +y at 0.15 m/s, a step bob of 2 cm, pitch -22 +- 10 deg (the
+    // horizon enters the top of the view), roll +-5 deg, and a yaw excursion
+    // to 50 deg: 2.2 s ramp, 0.1 s hold, 2.2 s back, starting at t = 3 s.
+    const Eigen::Vector3d p(wave(0.05 * a, 5, 0, t), -4.0 + 0.15 * a * t,
+                            kWalkHeight + wave(0.02 * a, 0.9, 0, t));
+    const double yaw = 50 * kDeg * a * bump(t, 3.0, 2.2, 0.1);
+    const Eigen::Matrix3d R = Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ()).toRotationMatrix() *
+                              wallView() *
+                              yawPitchRoll(0, -22 * kDeg + wave(10 * kDeg * a, 3.1, 0.5, t),
+                                           wave(5 * kDeg * a, 4.3, 0, t));
+    return pose(R, p);
+  }
+  // "still" (and anything unknown: validate() rejects unknown names).
+  return pose(wallView(), Eigen::Vector3d::Zero());
+}
+
+Eigen::Isometry3d planeMotion(const ScenePlane& plane, double t) {
+  Eigen::Isometry3d M = Eigen::Isometry3d::Identity();
+  if (plane.motion.empty()) return M;
+  const double A = plane.motion_amplitude;
+  const double wt = 2 * M_PI * t / plane.motion_period + plane.motion_phase;
+  if (plane.motion == "slide") {
+    M.translation() << A * std::sin(wt), 0.3 * A * std::sin(1.3 * wt), 0;
+  } else if (plane.motion == "slide_rotate") {
+    M.translation() << 0.5 * A * std::sin(wt), 0.15 * A * std::sin(1.3 * wt), 0;
+    M.linear() =
+        (Eigen::AngleAxisd(15 * kDeg * std::sin(0.8 * wt + 0.5), Eigen::Vector3d::UnitZ()) *
+         Eigen::AngleAxisd(10 * kDeg * std::sin(0.6 * wt + 1.0), Eigen::Vector3d::UnitY()))
+            .toRotationMatrix();
+  } else if (plane.motion == "approach") {
+    M.translation() << 0, 0.2 * A * std::sin(wt), -A * 0.5 * (1 - std::cos(wt));
+  }
+  return M;
+}
+
+bool presetLayout(const std::string& name, SceneOptions* o) {
+  o->planes.clear();
+  o->anchors.clear();
+  // Walls and the floor repeat a 2048 px texture every 3 m (683 px/m: sharp
+  // down to ~0.8 m viewing distance, no seams since the texture is periodic).
+  auto wall = [&](double w, double h) {
+    ScenePlane p;
+    p.kind = ScenePlane::Kind::kBackground;
+    p.width_m = w;
+    p.height_m = h;
+    p.T_world_plane = facingCamera(Eigen::Vector3d(0, kWallDistance, 0));
+    p.texture_seed = 1;
+    p.texture_size = 2048;
+    p.texture_tile_m = 3.0;
+    o->planes.push_back(p);
+    return &o->planes.back();
+  };
+  // Something on the wall (1 mm in front of it), or a card in front of it.
+  auto onWall = [&](ScenePlane::Kind kind, uint32_t id, double x, double z, double w, double h,
+                    double depth_in_front) {
+    ScenePlane p;
+    p.kind = kind;
+    p.id = id;
+    p.width_m = w;
+    p.height_m = h;
+    p.T_world_plane = facingCamera(Eigen::Vector3d(x, kWallDistance - depth_in_front, z));
+    p.texture_seed = static_cast<int>(o->planes.size()) + 1;
+    o->planes.push_back(p);
+    return &o->planes.back();
+  };
+
+  if (name == "wall_pan" || name == "planar" || name == "rotate" || name == "still") {
+    wall(10.0, 7.5);
+  } else if (name == "featureless_wall") {
+    ScenePlane* w = wall(10.0, 7.5);
+    w->flat = true;
+    w->flat_gray = 128;
+  } else if (name == "cards") {
+    wall(10.0, 7.5);
+    // Upper half: card 1 starts at the left and sweeps across in front of
+    // card 2 and back every 5 s (1 m/s at the centre), each pass occluding
+    // card 2 for ~1 s. Lower half: the static textured patch (4),
+    // card 3 approaching the camera, the featureless patch (5).
+    ScenePlane* c1 = onWall(ScenePlane::Kind::kCard, 1, 0.0, 0.3, 0.45, 0.35, 0.8);
+    c1->motion = "slide";
+    c1->motion_amplitude = 0.8;
+    c1->motion_period = 5.0;
+    c1->motion_phase = -M_PI / 2;
+    ScenePlane* c2 = onWall(ScenePlane::Kind::kCard, 2, 0.1, 0.25, 0.55, 0.4, 0.5);
+    c2->motion = "slide_rotate";
+    c2->motion_amplitude = 0.3;
+    c2->motion_period = 7.0;
+    ScenePlane* c3 = onWall(ScenePlane::Kind::kCard, 3, 0.0, -0.4, 0.5, 0.38, 0.4);
+    c3->motion = "approach";
+    c3->motion_amplitude = 0.5;
+    c3->motion_period = 6.0;
+    onWall(ScenePlane::Kind::kCard, 4, -0.8, -0.55, 0.5, 0.4, 0.001);  // static textured patch
+    ScenePlane* flat = onWall(ScenePlane::Kind::kFeatureless, 5, 0.8, -0.55, 0.5, 0.4, 0.001);
+    flat->flat_gray = 150;
+  } else if (name == "poster_orbit") {
+    wall(14.0, 9.0);
+    ScenePlane* poster = onWall(ScenePlane::Kind::kTarget, 1, 0, 0, 0.6, 0.45, 0.001);
+    poster->texture_size = 1024;
+  } else if (name == "floor_walk") {
+    // 12 m across, 20 m along the walk (10 m behind the start: pixels above
+    // the horizon would meet it behind the camera if they were not masked).
+    ScenePlane floor;
+    floor.kind = ScenePlane::Kind::kBackground;
+    floor.width_m = 12.0;
+    floor.height_m = 20.0;
+    // Seen from above: x = world x, y = world -y (texture top is far ahead), z = world down.
+    floor.T_world_plane = pose(Eigen::AngleAxisd(M_PI, Eigen::Vector3d::UnitX()).toRotationMatrix(),
+                               Eigen::Vector3d(0, -2.0, 0));
+    floor.texture_seed = 1;
+    floor.texture_size = 2048;
+    floor.texture_tile_m = 3.0;
+    o->planes.push_back(floor);
+    // The anchor: on the floor near where the optical axis meets it at t = 0.
+    const Eigen::Isometry3d T = trajectoryPose("walk", o->trajectory_amplitude, 0.0);
+    const Eigen::Vector3d c = T.translation(), d = T.linear().col(2);
+    SceneAnchor anchor;
+    anchor.id = 1;
+    anchor.p_world = c - (c.z() / d.z()) * d + Eigen::Vector3d(0.15, 0.1, 0);
+    anchor.placed_at = 0.0;
+    o->anchors.push_back(anchor);
+  } else {
+    return false;
+  }
+  return true;
+}
+
+}  // namespace scene_detail
+
+std::vector<std::string> SceneOptions::presetNames() {
+  return {"wall_pan", "cards",  "poster_orbit", "floor_walk",
+          "planar",   "rotate", "still",        "featureless_wall"};
+}
+
+std::vector<std::string> SceneOptions::trajectoryNames() {
+  return {"pan", "zoom", "planar", "rotate", "still", "orbit", "walk"};
+}
+
+std::optional<SceneOptions> SceneOptions::fromPreset(const std::string& name) {
+  SceneOptions o;  // the defaults are wall_pan's
+  o.preset = name;
+  if (name == "wall_pan" || name == "featureless_wall") {
+    o.trajectory = "pan";
+  } else if (name == "cards") {
+    o.trajectory = "pan";
+    o.trajectory_amplitude = 0.6;
+  } else if (name == "poster_orbit") {
+    o.trajectory = "orbit";
+    o.duration = 20.0;
+    o.brightness_amplitude = 0.25;
+    o.brightness_period = 7.0;
+  } else if (name == "floor_walk") {
+    o.trajectory = "walk";
+    o.duration = 12.0;
+  } else if (name == "planar" || name == "rotate") {
+    o.trajectory = name;
+  } else if (name == "still") {
+    o.trajectory = name;
+    o.brightness_amplitude = 0;  // consecutive frames differ by sensor noise only
+  } else {
+    return std::nullopt;
+  }
+  scene_detail::presetLayout(name, &o);
+  return o;
+}
+
+}  // namespace imt

@@ -435,7 +435,6 @@ class TrackBagRun {
       fail(err);
     }
     play_seconds_ = clock.lap();
-    progress_->update(frames_);
     progress_->finish();
   }
 

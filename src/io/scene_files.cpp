@@ -132,6 +132,8 @@ bool writeSceneInit(const SceneGenerator& scene, int frame_index, const std::str
   if (!regions.str().empty()) y << "regions:\n" << regions.str();
   if (!targets.str().empty()) y << "planar_targets:\n" << targets.str();
   if (!anchors.str().empty()) y << "anchors:\n" << anchors.str();
+  if (regions.str().empty() && targets.str().empty() && anchors.str().empty())
+    y << "{}  # this scene has no items to track\n";
   return writeText(path, y.str(), error);
 }
 

@@ -336,7 +336,11 @@ RegionState RegionTracker::step(const RegionState& state, const MotionData& md, 
   const bool conflicting = (fitted_shift - predicted_shift).norm() >
                            std::max(3.0, 0.5 * state.object_velocity.norm());
   const double n_fit = static_cast<double>(inliers.size());
-  if (state.support >= 5 && continued < o.occlusion_ratio * std::max(1.0, n_fit) && conflicting) {
+  // Support collapsed (most of the region hidden): a fit on the few
+  // features left is not trusted either.
+  const bool collapsed = state.support >= 5 && n_fit < std::max<double>(o.min_features, 0.2 * state.support);
+  if (collapsed ||
+      (state.support >= 5 && continued < o.occlusion_ratio * std::max(1.0, n_fit) && conflicting)) {
     if (state.coast_frames >= o.max_coast_frames) {
       next.status = RegionStatus::kLost;
       next.reason = "occluded for more than " + std::to_string(static_cast<int>(o.max_coast_frames)) +

@@ -149,4 +149,28 @@ CsvRow cameraMotionRow(const MotionData& md) {
   return row;
 }
 
+CsvRow regionRow(const RegionState& s) {
+  CsvRow row;
+  row.stamp(s.stamp).integer(s.id);
+  if (s.status == RegionStatus::kLost) {
+    row.empty().empty().empty().empty();
+  } else {
+    row.number(s.box.x).number(s.box.y).number(s.box.width).number(s.box.height);
+  }
+  return row.text(regionStatusName(s.status)).number(s.confidence);
+}
+
+CsvRow planarTargetRow(const PlanarTargetState& s) {
+  CsvRow row;
+  row.stamp(s.stamp).integer(s.id);
+  const bool lost = s.status == TargetStatus::kLost;
+  for (const cv::Point2d& c : s.corners) {
+    row.number(lost ? NAN : c.x).number(lost ? NAN : c.y);
+  }
+  const Eigen::Vector3d t = s.T_cam_target.translation();
+  const Eigen::Quaterniond q(s.T_cam_target.linear());
+  for (double v : {t.x(), t.y(), t.z(), q.x(), q.y(), q.z(), q.w()}) row.number(lost ? NAN : v);
+  return row.text(targetStatusName(s.status));
+}
+
 }  // namespace imt

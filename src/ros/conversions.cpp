@@ -193,4 +193,46 @@ instant_motion_tracking::TrackedRegionArray toMsg(const std::vector<RegionState>
   return a;
 }
 
+instant_motion_tracking::PlanarTarget toMsg(const PlanarTargetState& s) {
+  instant_motion_tracking::PlanarTarget m;
+  m.id = s.id;
+  for (int i = 0; i < 4; ++i) {
+    m.corners[i].x = s.corners[i].x;
+    m.corners[i].y = s.corners[i].y;
+  }
+  m.pose = toPoseMsg(s.T_cam_target);
+  m.width_m = s.width_m;
+  m.height_m = s.height_m;
+  m.status = targetStatusName(s.status);
+  m.confidence = s.confidence;
+  return m;
+}
+
+instant_motion_tracking::PlanarTargetArray toMsg(const std::vector<PlanarTargetState>& states,
+                                                 const std_msgs::Header& header) {
+  instant_motion_tracking::PlanarTargetArray a;
+  a.header = header;
+  for (const PlanarTargetState& s : states) a.targets.push_back(toMsg(s));
+  return a;
+}
+
+std::vector<geometry_msgs::TransformStamped> planarTargetTransforms(
+    const std::vector<PlanarTargetState>& states, const std_msgs::Header& header,
+    const std::string& frame_prefix) {
+  std::vector<geometry_msgs::TransformStamped> out;
+  for (const PlanarTargetState& s : states) {
+    if (s.status == TargetStatus::kLost) continue;
+    geometry_msgs::TransformStamped t;
+    t.header = header;
+    t.child_frame_id = frame_prefix + "planar_target_" + std::to_string(s.id);
+    const geometry_msgs::Pose p = toPoseMsg(s.T_cam_target);
+    t.transform.translation.x = p.position.x;
+    t.transform.translation.y = p.position.y;
+    t.transform.translation.z = p.position.z;
+    t.transform.rotation = p.orientation;
+    out.push_back(t);
+  }
+  return out;
+}
+
 }  // namespace imt

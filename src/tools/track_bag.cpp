@@ -323,6 +323,7 @@ class TrackBagRun {
     loadInputs();
     openOutputs();
     play();
+    trackItems();
     finish();
     writeSummary();
     for (const std::string& line : notes_.lines) std::fprintf(stderr, "track_bag: %s\n", line.c_str());
@@ -400,12 +401,6 @@ class TrackBagRun {
         !anchors_csv_.open(dir + "anchors.csv", imt::anchorColumns(), &err))
       fail(err);
     // Trackers of later versions: their files hold the header only, said once.
-    if (!init_.regions.empty())
-      notes_.note("region tracking is not implemented in this version; regions.csv holds its "
-                  "header only");
-    if (!init_.planar_targets.empty())
-      notes_.note("planar target tracking is not implemented in this version; planar_targets.csv "
-                  "holds its header only");
     if (!init_.anchors.empty())
       notes_.note("anchor tracking is not implemented in this version; anchors.csv holds its "
                   "header only");
@@ -422,7 +417,9 @@ class TrackBagRun {
   }
 
   void play() {
-    pipeline_ = std::make_unique<imt::Pipeline>(config_.pipeline);
+    // The whole bag stays in the motion-data cache: items given at any frame
+    // are then tracked backwards and forwards from it (trackItems()).
+    pipeline_ = std::make_unique<imt::Pipeline>(config_.pipeline, /*keep_all_motion_data=*/true);
     progress_ = std::make_unique<Progress>(input_.frameStamps().size(),
                                            !args_.quiet && isatty(STDERR_FILENO));
     imt::BagInput::Callbacks cb;
@@ -486,6 +483,7 @@ class TrackBagRun {
     clock.lap();  // the pipeline times its own stages
 
     ++model_counts_[imt::motionModelName(r.motion.camera.model)];
+    frames_out_.push_back({stamp, im.header(), std::max(im.bag_time, ros::TIME_MIN)});
     if (!camera_csv_.write(imt::cameraMotionRow(r.motion), why)) return false;
     if (out_bag_) {
       try {
@@ -523,6 +521,69 @@ class TrackBagRun {
     pipeline_->setIntrinsics(imt::CameraIntrinsics::fromFieldOfView(
         size.width, size.height, config_.pipeline.default_hfov_deg));
     intrinsics_source_ = "field_of_view";
+  }
+
+  // Regions and planar targets of INIT.yaml, each given at its frame and
+  // tracked over every frame of the run, backwards and forwards through the
+  // motion-data cache; rows in frame order, then id order.
+  void trackItems() {
+    if (init_.regions.empty() && init_.planar_targets.empty()) return;
+    Stopwatch clock;
+    std::string err;
+    const imt::MotionCache& cache = pipeline_->cache();
+    std::vector<uint32_t> region_ids, target_ids;
+    for (const imt::RegionInit& r : init_.regions) {
+      uint32_t id;
+      const cv::Rect2d box(r.box[0], r.box[1], r.box[2], r.box[3]);
+      if (!pipeline_->regions().add(r.id, r.stamp, box, &id, &err))
+        fail(args_.init + ": regions (id " + std::to_string(r.id) + "): " + err);
+      region_ids.push_back(id);
+    }
+    for (const imt::PlanarTargetInit& t : init_.planar_targets) {
+      std::array<cv::Point2d, 4> corners;
+      for (int i = 0; i < 4; ++i) corners[i] = cv::Point2d(t.corners[i][0], t.corners[i][1]);
+      uint32_t id;
+      if (!pipeline_->planarTargets().add(t.id, t.stamp, corners, t.size[0], t.size[1],
+                                          pipeline_->intrinsics(), cache, &id, &err))
+        fail(args_.init + ": planar_targets (id " + std::to_string(t.id) + "): " + err);
+      target_ids.push_back(id);
+    }
+    size_t missing = 0;
+    for (const FrameOut& f : frames_out_) {
+      uint64_t seq;
+      if (!cache.find(f.stamp, &seq, &err) || std::abs(cache.at(seq).stamp - f.stamp) > 1e-9) {
+        ++missing;  // dropped from the cache by a reset (time going backwards)
+        continue;
+      }
+      std::vector<imt::RegionState> regions;
+      if (!region_ids.empty() && !pipeline_->regions().seek(f.stamp, region_ids, &regions, &err)) fail(err);
+      for (const imt::RegionState& r : regions)
+        if (!regions_csv_.write(imt::regionRow(r), &err)) fail(err);
+      std::vector<imt::PlanarTargetState> targets;
+      for (uint32_t id : target_ids) {
+        imt::PlanarTargetState st;
+        if (!pipeline_->planarTargets().stateAt(id, seq, cache, &st, &err)) fail(err);
+        if (!targets_csv_.write(imt::planarTargetRow(st), &err)) fail(err);
+        targets.push_back(st);
+      }
+      if (out_bag_) {
+        try {
+          if (!region_ids.empty()) out_bag_->write("/regions", f.bag_time, imt::toMsg(regions, f.header));
+          if (!target_ids.empty()) {
+            out_bag_->write("/planar_targets", f.bag_time, imt::toMsg(targets, f.header));
+            tf2_msgs::TFMessage tf;
+            tf.transforms = imt::planarTargetTransforms(targets, f.header, config_.ros.frame_prefix);
+            if (!tf.transforms.empty()) out_bag_->write("/tf", f.bag_time, tf);
+          }
+        } catch (const std::exception& e) {
+          fail("cannot write --out-bag '" + args_.out_bag + "': " + e.what());
+        }
+      }
+    }
+    if (missing)
+      notes_.warn(std::to_string(missing) + " frame(s) before a reset have no region or planar-target rows "
+                  "(the motion analysis restarted there)");
+    stage_seconds_["track_items"] = clock.lap();
   }
 
   // Closes the outputs and turns the counts into warnings.
@@ -621,6 +682,12 @@ class TrackBagRun {
   std::optional<Eigen::Quaterniond> q_cam_imu_;
   // Outputs.
   imt::CsvWriter camera_csv_, regions_csv_, targets_csv_, anchors_csv_;
+  struct FrameOut {
+    double stamp;
+    std_msgs::Header header;
+    ros::Time bag_time;
+  };
+  std::vector<FrameOut> frames_out_;  // every processed frame, for trackItems()
   std::unique_ptr<rosbag::Bag> out_bag_;
   // The run.
   std::unique_ptr<imt::Pipeline> pipeline_;

@@ -358,14 +358,25 @@ TEST_F(TrackBag, InitEntriesAtAnyFrameOutBagAndRotationFromTfStatic) {
   const ToolRun r = run("--bag " + quote(good_) + " --init " + quote(init) + " --out-dir " +
                     quote(out) + " --out-bag " + quote(out_bag));
   ASSERT_EQ(r.status, 0) << r.err;
-  // One note per tracker that has entries but is not implemented yet; no
+  // A note for the tracker that is not implemented yet (anchors); no
   // progress bar (stderr is a file, not a terminal).
   EXPECT_EQ(r.errLines(),
             (std::vector<std::string>{
-                "track_bag: note: region tracking is not implemented in this version; regions.csv holds its header only",
-                "track_bag: note: planar target tracking is not implemented in this version; planar_targets.csv holds its header only",
                 "track_bag: note: anchor tracking is not implemented in this version; anchors.csv holds its header only"}));
-  EXPECT_EQ(readCsv(out + "/regions.csv").size(), 1u);  // header only: no fake rows
+  EXPECT_EQ(readCsv(out + "/anchors.csv").size(), 1u);  // header only: no fake rows
+  // The region (given at frame 10) and the planar target (given at the last
+  // frame) have a row for every frame of the bag, backwards and forwards.
+  const auto regions = readCsv(out + "/regions.csv");
+  ASSERT_EQ(regions.size(), 1u + 20);
+  for (int i = 0; i < 20; ++i) {
+    EXPECT_EQ(regions[1 + i][0], formatFixed(ros::Time(1000.0 + i / 30.0).toSec(), 9)) << i;
+    EXPECT_EQ(regions[1 + i][1], "1");
+  }
+  EXPECT_EQ(regions[1 + 10][2], "10");  // the given box at its own frame
+  EXPECT_EQ(regions[1 + 10][5], "30");
+  const auto targets = readCsv(out + "/planar_targets.csv");
+  ASSERT_EQ(targets.size(), 1u + 20);
+  EXPECT_EQ(targets[20][2], "10");  // corner x0 at the given (last) frame
 
   const nlohmann::json j = nlohmann::json::parse(readFile(out + "/summary.json"));
   EXPECT_EQ(j["init_entries"]["regions"], 1);

@@ -16,6 +16,8 @@
 // Threading: one writer per thread.
 #pragma once
 
+#include "instant_motion_tracking/core/planar_target.h"
+#include "instant_motion_tracking/core/region_tracker.h"
 #include "instant_motion_tracking/core/types.h"
 
 #include <cstdint>
@@ -82,5 +84,9 @@ const std::vector<std::string>& anchorColumns();        // stamp,id,u,v,tx,ty,tz
 
 // One camera_motion.csv row of a frame's motion data.
 CsvRow cameraMotionRow(const MotionData& md);
+// One regions.csv row (box columns empty when the region is lost).
+CsvRow regionRow(const RegionState& s);
+// One planar_targets.csv row (every estimate column empty when lost).
+CsvRow planarTargetRow(const PlanarTargetState& s);
 
 }  // namespace imt

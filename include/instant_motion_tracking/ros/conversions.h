@@ -4,11 +4,14 @@
 #pragma once
 
 #include "instant_motion_tracking/MotionData.h"
+#include "instant_motion_tracking/PlanarTargetArray.h"
 #include "instant_motion_tracking/TrackedRegionArray.h"
+#include "instant_motion_tracking/core/planar_target.h"
 #include "instant_motion_tracking/core/region_tracker.h"
 #include "instant_motion_tracking/core/types.h"
 
 #include <geometry_msgs/Pose.h>
+#include <geometry_msgs/TransformStamped.h>
 #include <sensor_msgs/CameraInfo.h>
 #include <sensor_msgs/Imu.h>
 #include <std_msgs/Header.h>
@@ -36,5 +39,14 @@ geometry_msgs::Pose toPoseMsg(const Eigen::Isometry3d& T);
 instant_motion_tracking::TrackedRegion toMsg(const RegionState& s);
 instant_motion_tracking::TrackedRegionArray toMsg(const std::vector<RegionState>& states,
                                                   const std_msgs::Header& header);
+
+instant_motion_tracking::PlanarTarget toMsg(const PlanarTargetState& s);
+instant_motion_tracking::PlanarTargetArray toMsg(const std::vector<PlanarTargetState>& states,
+                                                 const std_msgs::Header& header);
+// tf2 transforms `<prefix>planar_target_<id>` (children of header.frame_id),
+// one per target that is not lost.
+std::vector<geometry_msgs::TransformStamped> planarTargetTransforms(
+    const std::vector<PlanarTargetState>& states, const std_msgs::Header& header,
+    const std::string& frame_prefix);
 
 }  // namespace imt

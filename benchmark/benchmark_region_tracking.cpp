@@ -1,0 +1,180 @@
+// Region tracking speed and accuracy against peers, in one process on the
+// same rendered frames (the `cards` scene): this package's whole pipeline
+// (motion analysis + region tracking) with 1, 4, 10 and 100 regions, and
+// OpenCV's KCF and CSRT trackers (opencv_contrib) on the same 4 regions.
+// Prints a table: frames per second of the whole pipeline and mean IoU
+// against the generator's ground truth. Single-threaded (cv::setNumThreads(1)).
+//
+//   make -C _build benchmarks && taskset -c 0 _build/benchmark/benchmark_region_tracking [seconds]
+#include "instant_motion_tracking/core/motion_analysis.h"
+#include "instant_motion_tracking/core/region_manager.h"
+#include "instant_motion_tracking/core/scene.h"
+
+#include <opencv2/imgproc.hpp>
+#ifdef IMT_HAVE_OPENCV_TRACKING
+#include <opencv2/tracking.hpp>
+#endif
+
+#include <chrono>
+#include <cstdio>
+#include <cstdlib>
+#include <map>
+#include <random>
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+using imt::FrameTruth;
+
+double iouClipped(cv::Rect2d a, cv::Rect2d b, cv::Size size) {
+  const cv::Rect2d img(0, 0, size.width, size.height);
+  a &= img;
+  b &= img;
+  const double i = (a & b).area();
+  const double u = a.area() + b.area() - i;
+  return u > 0 ? i / u : 0;
+}
+
+const FrameTruth::Region* region(const FrameTruth& f, uint32_t id) {
+  for (const auto& r : f.regions)
+    if (r.id == id) return &r;
+  return nullptr;
+}
+
+struct Row {
+  std::string name;
+  int regions;
+  double fps, iou;
+};
+
+// Mean IoU over the scored regions and frames where they are >= half visible.
+struct IouAccumulator {
+  double sum = 0;
+  int n = 0;
+  void add(const cv::Rect2d& box, const FrameTruth& f, uint32_t id, cv::Size size, bool lost = false) {
+    const FrameTruth::Region* r = region(f, id);
+    if (!r || r->visible_fraction < 0.5) return;
+    sum += lost ? 0 : iouClipped(box, r->box, size);
+    ++n;
+  }
+  double mean() const { return n ? sum / n : 0; }
+};
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  cv::setNumThreads(1);
+  const double seconds = argc > 1 ? std::atof(argv[1]) : 10.0;
+  auto opt = imt::SceneOptions::fromPreset("cards");
+  opt->duration = seconds;
+  opt->seed = 11;
+  std::string err;
+  auto scene = imt::SceneGenerator::create(*opt, &err);
+  if (!scene) {
+    std::fprintf(stderr, "scene: %s\n", err.c_str());
+    return 1;
+  }
+  std::vector<cv::Mat> gray, bgr;
+  std::vector<FrameTruth> truth;
+  for (int i = 0; i < scene->frameCount(); ++i) {
+    gray.push_back(scene->renderFrame(i));
+    cv::Mat c;
+    cv::cvtColor(gray.back(), c, cv::COLOR_GRAY2BGR);
+    bgr.push_back(c);
+    truth.push_back(scene->frameTruth(i));
+  }
+  const std::vector<uint32_t> scored = {1, 2, 3, 4};  // three cards and the static patch
+  // Start where every scored region is wholly in view and unoccluded (a box
+  // given on a half-visible card would stand for only that half).
+  int start = 0;
+  for (; start < static_cast<int>(truth.size()); ++start) {
+    bool whole = true;
+    for (uint32_t id : scored) {
+      const FrameTruth::Region* r = region(truth[start], id);
+      whole = whole && r && r->visible_fraction > 0.999 && r->occluded_fraction < 0.001;
+    }
+    if (whole) break;
+  }
+  gray.erase(gray.begin(), gray.begin() + start);
+  bgr.erase(bgr.begin(), bgr.begin() + start);
+  truth.erase(truth.begin(), truth.begin() + start);
+  std::vector<double> stamps;
+  for (int i = start; i < scene->frameCount(); ++i) stamps.push_back(scene->frameStamp(i));
+  std::vector<Row> rows;
+  const cv::Size size = gray[0].size();
+  const int n = static_cast<int>(gray.size());
+
+  // This package: the whole pipeline, live (regions given at the first frame).
+  bool warmed_up = false;
+  for (int count : {1, 1, 4, 10, 100}) {
+    imt::MotionAnalyzer analyzer{imt::MotionAnalysisOptions()};
+    imt::RegionManager regions(imt::RegionTrackerOptions(), 10.0);
+    std::map<uint32_t, uint32_t> truth_id;  // tracker id -> scored truth id
+    IouAccumulator acc;
+    double total = 0;
+    for (int k = 0; k < n; ++k) {
+      const auto t0 = Clock::now();
+      const imt::MotionData md = analyzer.process(gray[k], stamps[k]);
+      std::vector<imt::RegionState> states = regions.update(md);
+      if (k == 0) {
+        std::mt19937 rng(1);
+        std::uniform_real_distribution<double> ux(0, size.width - 60), uy(0, size.height - 50);
+        for (int r = 0; r < count; ++r) {
+          uint32_t id;
+          cv::Rect2d box(ux(rng), uy(rng), 60, 50);
+          if (r < static_cast<int>(scored.size())) box = region(truth[0], scored[r])->box;
+          regions.add(0, 0, box, &id, &err);
+          if (r < static_cast<int>(scored.size())) truth_id[id] = scored[r];
+        }
+        states = regions.latest();
+      }
+      total += std::chrono::duration<double>(Clock::now() - t0).count();
+      for (const auto& s : states)
+        if (truth_id.count(s.id))
+          acc.add(s.box, truth[k], truth_id[s.id], size, s.status == imt::RegionStatus::kLost);
+    }
+    if (count == 1 && !warmed_up) {  // the first run warms caches and allocators
+      warmed_up = true;
+      continue;
+    }
+    rows.push_back({"instant_motion_tracking (pipeline)", count, n / total, acc.mean()});
+  }
+
+#ifdef IMT_HAVE_OPENCV_TRACKING
+  // Peers on the same 4 regions, each tracker on its own.
+  for (const std::string name : {"KCF", "CSRT"}) {
+    std::vector<cv::Ptr<cv::Tracker>> trackers;
+    IouAccumulator acc;
+    double total = 0;
+    for (int k = 0; k < n; ++k) {
+      const auto t0 = Clock::now();
+      std::vector<cv::Rect> boxes(scored.size());
+      std::vector<bool> ok(scored.size(), true);
+      if (k == 0) {
+        for (size_t r = 0; r < scored.size(); ++r) {
+          cv::Ptr<cv::Tracker> t;
+          if (name == "KCF") t = cv::TrackerKCF::create();
+          else t = cv::TrackerCSRT::create();
+          boxes[r] = region(truth[0], scored[r])->box;
+          t->init(bgr[0], boxes[r]);
+          trackers.push_back(t);
+        }
+      } else {
+        for (size_t r = 0; r < scored.size(); ++r) ok[r] = trackers[r]->update(bgr[k], boxes[r]);
+      }
+      total += std::chrono::duration<double>(Clock::now() - t0).count();
+      for (size_t r = 0; r < scored.size(); ++r) acc.add(cv::Rect2d(boxes[r]), truth[k], scored[r], size, !ok[r]);
+    }
+    rows.push_back({"OpenCV " + name, static_cast<int>(scored.size()), n / total, acc.mean()});
+  }
+#else
+  std::printf("(OpenCV tracking module not found: KCF/CSRT rows skipped; install libopencv-contrib-dev)\n");
+#endif
+
+  std::printf("\nRegion tracking, cards scene %dx%d, %d frames (from frame %d), one thread\n", size.width,
+              size.height, n, start);
+  std::printf("| tracker | regions | frames/s | ms/frame | mean IoU (scored regions) |\n|---|---|---|---|---|\n");
+  for (const Row& r : rows)
+    std::printf("| %s | %d | %.1f | %.2f | %.3f |\n", r.name.c_str(), r.regions, r.fps, 1000 / r.fps, r.iou);
+  return 0;
+}

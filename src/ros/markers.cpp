@@ -29,11 +29,6 @@ visualization_msgs::MarkerArray regionMarkers(const std::vector<RegionState>& st
                                               const std_msgs::Header& header,
                                               const CameraIntrinsics& k) {
   visualization_msgs::MarkerArray out;
-  visualization_msgs::Marker clear;
-  clear.header = header;
-  clear.ns = "regions";
-  clear.action = visualization_msgs::Marker::DELETEALL;
-  out.markers.push_back(clear);
   for (const RegionState& s : states) {
     if (s.status == RegionStatus::kLost || !k.valid) continue;
     visualization_msgs::Marker box;
@@ -44,6 +39,7 @@ visualization_msgs::MarkerArray regionMarkers(const std::vector<RegionState>& st
     box.action = visualization_msgs::Marker::ADD;
     box.pose.orientation.w = 1.0;
     box.scale.x = 0.004;
+    box.lifetime = ros::Duration(0.5);  // no DELETEALL: other nodelets publish markers too
     box.color = colour(s.status);
     const cv::Rect2d& b = s.box;
     for (const auto& [u, v] : {std::pair<double, double>{b.x, b.y}, {b.br().x, b.y}, {b.br().x, b.br().y},
@@ -58,6 +54,37 @@ visualization_msgs::MarkerArray regionMarkers(const std::vector<RegionState>& st
     text.scale.z = 0.03;
     text.text = std::to_string(s.id) + " " + regionStatusName(s.status);
     out.markers.push_back(text);
+  }
+  return out;
+}
+
+visualization_msgs::MarkerArray planarTargetMarkers(const std::vector<PlanarTargetState>& states,
+                                                    const std_msgs::Header& header) {
+  visualization_msgs::MarkerArray out;
+  for (const PlanarTargetState& s : states) {
+    if (s.status == TargetStatus::kLost) continue;
+    visualization_msgs::Marker quad;
+    quad.header = header;
+    quad.ns = "planar_targets";
+    quad.id = static_cast<int>(s.id);
+    quad.type = visualization_msgs::Marker::LINE_STRIP;
+    quad.action = visualization_msgs::Marker::ADD;
+    quad.pose.orientation.w = 1.0;
+    quad.scale.x = 0.005;
+    quad.lifetime = ros::Duration(0.5);
+    quad.color.a = 1.0;
+    quad.color.g = s.status == TargetStatus::kTracked ? 1.0 : 0.6;
+    quad.color.r = s.status == TargetStatus::kTracked ? 0.0 : 1.0;
+    const double w = s.width_m / 2, h = s.height_m / 2;
+    for (const auto& [x, y] : {std::pair<double, double>{-w, -h}, {w, -h}, {w, h}, {-w, h}, {-w, -h}}) {
+      const Eigen::Vector3d p = s.T_cam_target * Eigen::Vector3d(x, y, 0);
+      geometry_msgs::Point q;
+      q.x = p.x();
+      q.y = p.y();
+      q.z = p.z();
+      quad.points.push_back(q);
+    }
+    out.markers.push_back(quad);
   }
   return out;
 }

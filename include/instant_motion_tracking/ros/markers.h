@@ -1,8 +1,9 @@
-// rviz markers for 2D tracking results: each region's box drawn on a plane
+// rviz markers (0.5 s lifetime, so several nodelets can share the topic): each region's box drawn on a plane
 // 1 m in front of the camera (back-projected with the intrinsics), in the
 // image's frame, with its id and status as text.
 #pragma once
 
+#include "instant_motion_tracking/core/planar_target.h"
 #include "instant_motion_tracking/core/region_tracker.h"
 
 #include <std_msgs/Header.h>
@@ -15,5 +16,10 @@ namespace imt {
 visualization_msgs::MarkerArray regionMarkers(const std::vector<RegionState>& states,
                                               const std_msgs::Header& header,
                                               const CameraIntrinsics& k);
+
+// Each planar target's outline in 3D (its pose and size), in the image's
+// frame, with its id as text; lost targets are left out.
+visualization_msgs::MarkerArray planarTargetMarkers(const std::vector<PlanarTargetState>& states,
+                                                    const std_msgs::Header& header);
 
 }  // namespace imt

@@ -1,0 +1,95 @@
+#include "instant_motion_tracking/ros/planar_target_nodelet.h"
+
+#include "instant_motion_tracking/ros/conversions.h"
+#include "instant_motion_tracking/ros/markers.h"
+#include "instant_motion_tracking/ros/params.h"
+
+#include <pluginlib/class_list_macros.hpp>
+
+namespace imt {
+
+void PlanarTargetNodelet::onInit() {
+  ros::NodeHandle& nh = getNodeHandle();
+  std::string error;
+  if (!loadConfigFromRos(getPrivateNodeHandle(), &config_, &error)) {
+    NODELET_ERROR("bad parameter, using the defaults instead: %s", error.c_str());
+  }
+  cache_ = std::make_unique<MotionCache>(config_.pipeline.cache_seconds);
+  targets_ = std::make_unique<PlanarTargetManager>(config_.pipeline.planar_tracking);
+  tf_ = std::make_unique<tf2_ros::TransformBroadcaster>();
+  std::lock_guard<std::mutex> lock(mutex_);
+  targets_pub_ = nh.advertise<instant_motion_tracking::PlanarTargetArray>("planar_targets", 10);
+  markers_pub_ = nh.advertise<visualization_msgs::MarkerArray>("markers", 10);
+  // Always subscribed: the cache must hold the recent past for targets given
+  // at a past stamp; motion data is small.
+  motion_sub_ = nh.subscribe("motion_data", 10 * config_.ros.queue_size, &PlanarTargetNodelet::motionCb, this);
+  info_sub_ = nh.subscribe("camera_info", 1, &PlanarTargetNodelet::infoCb, this);
+  add_srv_ = nh.advertiseService("add_planar_target", &PlanarTargetNodelet::addCb, this);
+  remove_srv_ = nh.advertiseService("remove_planar_target", &PlanarTargetNodelet::removeCb, this);
+}
+
+CameraIntrinsics PlanarTargetNodelet::intrinsics() const {
+  const cv::Size size = cache_->imageSize();
+  if (info_.valid && info_.width == size.width && info_.height == size.height) return info_;
+  return CameraIntrinsics::fromFieldOfView(size.width, size.height, config_.pipeline.default_hfov_deg);
+}
+
+void PlanarTargetNodelet::infoCb(const sensor_msgs::CameraInfoConstPtr& msg) {
+  CameraIntrinsics k;
+  std::string why;
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (fromCameraInfo(*msg, &k, &why)) {
+    info_ = k;
+  } else {
+    NODELET_WARN_THROTTLE(10.0, "ignoring camera_info: %s", why.c_str());
+  }
+}
+
+void PlanarTargetNodelet::motionCb(const instant_motion_tracking::MotionDataConstPtr& msg) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  const MotionData md = fromMsg(*msg);
+  if (md.width <= 0 || md.height <= 0) {
+    NODELET_WARN_THROTTLE(5.0, "dropping motion_data without an image size");
+    return;
+  }
+  std::string reset;
+  if (!cache_->push(md, &reset)) {
+    targets_->clear();
+    NODELET_WARN_THROTTLE(5.0, "%s; planar targets cleared", reset.c_str());
+  }
+  const std::vector<PlanarTargetState> states = targets_->update(*cache_);
+  if (targets_pub_.getNumSubscribers() > 0) targets_pub_.publish(toMsg(states, msg->header));
+  if (config_.ros.publish_tf && !states.empty()) {
+    const auto transforms = planarTargetTransforms(states, msg->header, config_.ros.frame_prefix);
+    if (!transforms.empty()) tf_->sendTransform(transforms);
+  }
+  if (markers_pub_.getNumSubscribers() > 0) markers_pub_.publish(planarTargetMarkers(states, msg->header));
+}
+
+bool PlanarTargetNodelet::addCb(instant_motion_tracking::AddPlanarTarget::Request& req,
+                                instant_motion_tracking::AddPlanarTarget::Response& res) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  std::array<cv::Point2d, 4> corners;
+  for (int i = 0; i < 4; ++i) corners[i] = cv::Point2d(req.corners[i].x, req.corners[i].y);
+  std::string error;
+  uint32_t id = 0;
+  res.success = targets_->add(req.id, req.stamp.toSec(), corners, req.width_m, req.height_m, intrinsics(),
+                              *cache_, &id, &error);
+  res.id = res.success ? id : 0;
+  res.message = res.success ? "tracking planar target " + std::to_string(id) : error;
+  if (!res.success) NODELET_WARN_THROTTLE(1.0, "add_planar_target refused: %s", error.c_str());
+  return true;
+}
+
+bool PlanarTargetNodelet::removeCb(instant_motion_tracking::RemoveRegion::Request& req,
+                                   instant_motion_tracking::RemoveRegion::Response& res) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  std::string error;
+  res.success = targets_->remove(req.id, &error);
+  res.message = res.success ? "removed planar target " + std::to_string(req.id) : error;
+  return true;
+}
+
+}  // namespace imt
+
+PLUGINLIB_EXPORT_CLASS(imt::PlanarTargetNodelet, nodelet::Nodelet)

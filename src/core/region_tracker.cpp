@@ -261,6 +261,7 @@ RegionState RegionTracker::step(const RegionState& state, const MotionData& md, 
     next.inliers.clear();
     next.outliers.clear();
     next.inlier_centroid = cv::Point2d(centre(b).x(), centre(b).y());
+    next.inlier_extent = cv::Size2d();
     next.coast_frames = 0;
     return next;
   };
@@ -372,6 +373,11 @@ RegionState RegionTracker::step(const RegionState& state, const MotionData& md, 
   if (!inliers.empty()) centroid /= static_cast<double>(inliers.size());
   else centroid = centre(next.box);
   next.inlier_centroid = cv::Point2d(centroid.x(), centroid.y());
+  Eigen::Vector2d var = Eigen::Vector2d::Zero();
+  for (const Vec& v : vecs)
+    if (v.in_box && v.error < thr) var += (v.dst - centroid).cwiseAbs2();
+  if (!inliers.empty()) var /= static_cast<double>(inliers.size());
+  next.inlier_extent = cv::Size2d(3.3 * std::sqrt(var.x()), 3.3 * std::sqrt(var.y()));
   next.inliers = std::move(inliers);
   next.outliers = std::move(outliers);
   next.support = std::max(static_cast<double>(next.inliers.size()), 0.98 * state.support);

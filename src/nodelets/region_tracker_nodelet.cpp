@@ -63,6 +63,12 @@ void RegionTrackerNodelet::motionCb(const instant_motion_tracking::MotionDataCon
   frame_id_ = msg->header.frame_id;
   const std::vector<RegionState> states = manager_->update(md);
   if (!manager_->lastReset().empty()) NODELET_WARN_THROTTLE(5.0, "%s", manager_->lastReset().c_str());
+  for (const RegionState& s : states) {
+    if (s.status == RegionStatus::kLost && !reported_lost_.count(s.id)) {
+      reported_lost_.insert(s.id);  // said once per region
+      NODELET_INFO("region %u lost at stamp %.6f: %s", s.id, s.stamp, s.reason.c_str());
+    }
+  }
   if (regions_pub_.getNumSubscribers() > 0) regions_pub_.publish(toMsg(states, msg->header));
   if (markers_pub_.getNumSubscribers() > 0) {
     CameraIntrinsics k = intrinsics_;
@@ -93,6 +99,7 @@ bool RegionTrackerNodelet::removeCb(instant_motion_tracking::RemoveRegion::Reque
   std::lock_guard<std::mutex> lock(mutex_);
   std::string error;
   res.success = manager_->remove(req.id, &error);
+  reported_lost_.erase(req.id);
   res.message = res.success ? "removed region " + std::to_string(req.id) : error;
   updateSubscription();
   return true;

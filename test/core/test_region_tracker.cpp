@@ -200,3 +200,29 @@ TEST(RegionTracker, SortedCropGivesTheSameTrackAsAFullScan) {
 
 }  // namespace
 }  // namespace imt
+
+namespace imt {
+namespace {
+
+// The inlier extent (3.3 sigma of the inliers) matches the card's size: a
+// uniform spread over w has sigma w / sqrt(12), so 3.3 sigma ~ 0.95 w.
+TEST(RegionTracker, InlierCentroidAndExtentDescribeTheSupport) {
+  World w = makeWorld();
+  Object card;
+  card.points = randomPoints(150, 120, 90, 21, true);
+  card.half_size = {60, 45};
+  card.centre = [](int k) { return Eigen::Vector2d(320 + 2.0 * k, 240); };
+  card.scale = [](int) { return 1.0; };
+  w.objects.push_back(card);
+  const auto md = w.motionData(10);
+  const Track tr = trackForward(md, w.box(0, 0), 0);
+  const RegionState& s = tr.states.back();
+  const cv::Rect2d gt = w.box(0, 9);
+  EXPECT_NEAR(s.inlier_centroid.x, gt.x + gt.width / 2, 6.0);  // random points: centroid within ~1 sigma/sqrt(n) * few
+  EXPECT_NEAR(s.inlier_centroid.y, gt.y + gt.height / 2, 6.0);
+  EXPECT_NEAR(s.inlier_extent.width, 0.95 * gt.width, 0.15 * gt.width);
+  EXPECT_NEAR(s.inlier_extent.height, 0.95 * gt.height, 0.15 * gt.height);
+}
+
+}  // namespace
+}  // namespace imt

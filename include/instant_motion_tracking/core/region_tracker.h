@@ -49,6 +49,7 @@ struct RegionState {
   std::vector<uint32_t> inliers;   // feature IDs that support the region (sorted)
   std::vector<uint32_t> outliers;  // feature IDs inside it that move differently (sorted)
   cv::Point2d inlier_centroid;     // px
+  cv::Size2d inlier_extent;        // px; 3.3 standard deviations of the inliers in x and y (0 without inliers)
   int coast_frames = 0;            // consecutive frames predicted without support
   std::string reason;              // why the region is lost (empty otherwise)
 

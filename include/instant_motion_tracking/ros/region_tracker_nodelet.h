@@ -31,6 +31,7 @@
 
 #include <memory>
 #include <mutex>
+#include <set>
 
 namespace imt {
 
@@ -56,6 +57,7 @@ class RegionTrackerNodelet : public nodelet::Nodelet {
   ros::Publisher regions_pub_, markers_pub_;
   ros::ServiceServer add_srv_, remove_srv_, seek_srv_;
   std::mutex mutex_;
+  std::set<uint32_t> reported_lost_;  // regions whose loss was logged
 };
 
 }  // namespace imt

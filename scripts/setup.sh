@@ -54,6 +54,12 @@ imt_build() {
   make -C "$IMT_BUILD_DIR" -j"$(nproc)" --no-print-directory "$@" >"$IMT_BUILD_DIR/build.log" 2>&1 ||
     make -C "$IMT_BUILD_DIR" -j1 --no-print-directory "$@" >"$IMT_BUILD_DIR/build.log" 2>&1 ||
     { tail -n 60 "$IMT_BUILD_DIR/build.log" >&2; imt_log "build failed (full log: $IMT_BUILD_DIR/build.log)"; return 1; }
+  # The catkin setup scripts read unset variables (ROS_DISTRO): not under set -u.
+  local had_u=0
+  [[ $- == *u* ]] && had_u=1
+  set +u
   # shellcheck disable=SC1091
   source "$IMT_BUILD_DIR/devel/setup.bash"
+  [ "$had_u" = 1 ] && set -u
+  return 0
 }

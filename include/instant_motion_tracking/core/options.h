@@ -9,6 +9,7 @@
 //   template <class S> void section(const char* name, S& sub);       // nested struct
 #pragma once
 
+#include "instant_motion_tracking/core/imu_orientation.h"
 #include "instant_motion_tracking/core/planar_target.h"
 #include "instant_motion_tracking/core/region_tracker_options.h"
 
@@ -111,6 +112,7 @@ struct PipelineOptions {
   MotionAnalysisOptions motion_analysis;
   RegionTrackerOptions region_tracking;
   PlanarTargetOptions planar_tracking;
+  ImuOptions imu;
 
   template <class V>
   void visit(V& v) {
@@ -119,6 +121,7 @@ struct PipelineOptions {
     v.section("motion_analysis", motion_analysis);
     v.section("region_tracking", region_tracking);
     v.section("planar_tracking", planar_tracking);
+    v.section("imu", imu);
   }
   std::string validate() const;
 };

@@ -4,6 +4,8 @@
 // tests at the defaults (640x480, hfov 60 deg).
 #include "instant_motion_tracking/core/scene.h"
 
+#include "scene_test_util.h"
+
 #include <gtest/gtest.h>
 #include <Eigen/Eigenvalues>
 #include <opencv2/imgcodecs.hpp>
@@ -18,18 +20,8 @@ namespace {
 
 constexpr double kRadToDeg = 180.0 / M_PI;
 
-SceneOptions preset(const std::string& name) {
-  std::optional<SceneOptions> o = SceneOptions::fromPreset(name);
-  EXPECT_TRUE(o.has_value()) << name;
-  return o ? *o : SceneOptions();
-}
-
-std::unique_ptr<SceneGenerator> make(const SceneOptions& o) {
-  std::string err;
-  auto scene = SceneGenerator::create(o, &err);
-  EXPECT_TRUE(scene != nullptr) << err;
-  return scene;
-}
+using test::make;
+using test::preset;
 
 // Our pixel convention -> OpenCV's (centres at integers) for a homography.
 cv::Matx33d toOpenCv(const Eigen::Matrix3d& H) {

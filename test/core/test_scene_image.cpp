@@ -2,6 +2,8 @@
 // brightness, motion blur and textures.
 #include "instant_motion_tracking/core/scene.h"
 
+#include "scene_test_util.h"
+
 #include <gtest/gtest.h>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
@@ -13,18 +15,8 @@
 namespace imt {
 namespace {
 
-SceneOptions preset(const std::string& name) {
-  std::optional<SceneOptions> o = SceneOptions::fromPreset(name);
-  EXPECT_TRUE(o.has_value()) << name;
-  return o ? *o : SceneOptions();
-}
-
-std::unique_ptr<SceneGenerator> make(const SceneOptions& o) {
-  std::string err;
-  auto scene = SceneGenerator::create(o, &err);
-  EXPECT_TRUE(scene != nullptr) << err;
-  return scene;
-}
+using test::make;
+using test::preset;
 
 TEST(Scene, RenderingIsDeterministicAndThreadSafe) {
   SceneOptions o = preset("cards");

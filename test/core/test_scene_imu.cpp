@@ -1,6 +1,8 @@
 // Tests of the scene generator's IMU stream against its trajectory.
 #include "instant_motion_tracking/core/scene.h"
 
+#include "scene_test_util.h"
+
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -9,18 +11,8 @@
 namespace imt {
 namespace {
 
-SceneOptions preset(const std::string& name) {
-  std::optional<SceneOptions> o = SceneOptions::fromPreset(name);
-  EXPECT_TRUE(o.has_value()) << name;
-  return o ? *o : SceneOptions();
-}
-
-std::unique_ptr<SceneGenerator> make(const SceneOptions& o) {
-  std::string err;
-  auto scene = SceneGenerator::create(o, &err);
-  EXPECT_TRUE(scene != nullptr) << err;
-  return scene;
-}
+using test::make;
+using test::preset;
 
 double rotationAngleDeg(const Eigen::Matrix3d& A, const Eigen::Matrix3d& B) {
   return Eigen::AngleAxisd(A.transpose() * B).angle() * 180.0 / M_PI;

@@ -1,5 +1,7 @@
 #include "instant_motion_tracking/core/planar_target_manager.h"
 
+#include <cmath>
+
 namespace imt {
 
 const PlanarTargetState& PlanarTargetManager::advance(Target& t, uint64_t seq, const MotionCache& cache) {
@@ -42,6 +44,15 @@ bool PlanarTargetManager::add(uint32_t id, double stamp, const std::array<cv::Po
                               const MotionCache& cache, uint32_t* assigned_id, std::string* error) {
   if (id != 0 && targets_.count(id)) {
     *error = "planar target id " + std::to_string(id) + " is already tracked";
+    return false;
+  }
+  // The request itself first, so a bad quad is named even before any frame.
+  if (std::string e = validateQuad(corners); !e.empty()) {
+    *error = e;
+    return false;
+  }
+  if (!(width_m > 0) || !(height_m > 0) || !std::isfinite(width_m) || !std::isfinite(height_m)) {
+    *error = "target size must be positive (got " + std::to_string(width_m) + " x " + std::to_string(height_m) + " m)";
     return false;
   }
   uint64_t seq;

@@ -18,14 +18,29 @@ void PlanarTargetNodelet::onInit() {
   targets_ = std::make_unique<PlanarTargetManager>(config_.pipeline.planar_tracking);
   tf_ = std::make_unique<tf2_ros::TransformBroadcaster>();
   std::lock_guard<std::mutex> lock(mutex_);
-  targets_pub_ = nh.advertise<instant_motion_tracking::PlanarTargetArray>("planar_targets", 10);
-  markers_pub_ = nh.advertise<visualization_msgs::MarkerArray>("markers", 10);
-  // Always subscribed: the cache must hold the recent past for targets given
-  // at a past stamp; motion data is small.
-  motion_sub_ = nh.subscribe("motion_data", 10 * config_.ros.queue_size, &PlanarTargetNodelet::motionCb, this);
+  auto cb = [this](const ros::SingleSubscriberPublisher&) {
+    std::lock_guard<std::mutex> l(mutex_);
+    updateSubscription();
+  };
+  targets_pub_ = nh.advertise<instant_motion_tracking::PlanarTargetArray>("planar_targets", 10, cb, cb);
+  markers_pub_ = nh.advertise<visualization_msgs::MarkerArray>("markers", 10, cb, cb);
+  updateSubscription();
   info_sub_ = nh.subscribe("camera_info", 1, &PlanarTargetNodelet::infoCb, this);
   add_srv_ = nh.advertiseService("add_planar_target", &PlanarTargetNodelet::addCb, this);
   remove_srv_ = nh.advertiseService("remove_planar_target", &PlanarTargetNodelet::removeCb, this);
+}
+
+// Lazy like the other nodelets: motion_data is subscribed while an output has
+// a subscriber, a target exists (its tf is wanted), or ~always_subscribe.
+void PlanarTargetNodelet::updateSubscription() {
+  const bool wanted = config_.ros.always_subscribe || targets_->size() > 0 ||
+                      targets_pub_.getNumSubscribers() > 0 || markers_pub_.getNumSubscribers() > 0;
+  if (wanted && !motion_sub_) {
+    motion_sub_ = getNodeHandle().subscribe("motion_data", 10 * config_.ros.queue_size,
+                                            &PlanarTargetNodelet::motionCb, this);
+  } else if (!wanted && motion_sub_) {
+    motion_sub_.shutdown();
+  }
 }
 
 CameraIntrinsics PlanarTargetNodelet::intrinsics() const {
@@ -78,6 +93,9 @@ bool PlanarTargetNodelet::addCb(instant_motion_tracking::AddPlanarTarget::Reques
   res.id = res.success ? id : 0;
   res.message = res.success ? "tracking planar target " + std::to_string(id) : error;
   if (!res.success) NODELET_WARN_THROTTLE(1.0, "add_planar_target refused: %s", error.c_str());
+  if (!res.success && cache_->empty())
+    res.message += " (subscribed to " + getNodeHandle().resolveName("motion_data") + "; retry shortly)";
+  updateSubscription();
   return true;
 }
 
@@ -87,6 +105,7 @@ bool PlanarTargetNodelet::removeCb(instant_motion_tracking::RemoveRegion::Reques
   std::string error;
   res.success = targets_->remove(req.id, &error);
   res.message = res.success ? "removed planar target " + std::to_string(req.id) : error;
+  updateSubscription();
   return true;
 }
 

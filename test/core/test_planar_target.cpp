@@ -228,6 +228,21 @@ TEST(PlanarTargetManager, TargetGivenMidSequenceIsTrackedBothWays) {
   EXPECT_NE(err.find("unknown planar target id 9"), std::string::npos);
 }
 
+TEST(PlanarTargetManager, BadRequestsAreNamedEvenBeforeAnyFrame) {
+  MotionCache empty(10.0);
+  PlanarTargetManager m{PlanarTargetOptions()};
+  uint32_t id;
+  std::string err;
+  const std::array<cv::Point2d, 4> bowtie = {cv::Point2d(100, 100), {200, 200}, {200, 100}, {100, 200}};
+  EXPECT_FALSE(m.add(0, 0, bowtie, 0.3, 0.2, intrinsics(), empty, &id, &err));
+  EXPECT_NE(err.find("convex"), std::string::npos) << err;
+  const std::array<cv::Point2d, 4> good = {cv::Point2d(100, 100), {200, 100}, {200, 180}, {100, 180}};
+  EXPECT_FALSE(m.add(0, 0, good, -1, 0.2, intrinsics(), empty, &id, &err));
+  EXPECT_NE(err.find("size must be positive"), std::string::npos) << err;
+  EXPECT_FALSE(m.add(0, 0, good, 0.3, 0.2, intrinsics(), empty, &id, &err));
+  EXPECT_NE(err.find("no motion data"), std::string::npos) << err;
+}
+
 TEST(PlanarTarget, BadQuadsAndSizesAreRefused) {
   const Scene sc = makeScene(2, false);
   std::string err;

@@ -13,8 +13,10 @@
 //   add_planar_target    AddPlanarTarget: corners TL, TR, BR, BL at a cached stamp (0 = latest) + size
 //   remove_planar_target RemoveRegion
 // Parameters (private namespace; config/default.yaml): cache_seconds, default_hfov_deg,
-//   planar_tracking/*, publish_tf, frame_prefix, queue_size.
-// Bad requests get success=false and a message; the nodelet lives on.
+//   planar_tracking/*, publish_tf, frame_prefix, queue_size, always_subscribe.
+// motion_data is subscribed while an output has a subscriber, a target exists,
+// or ~always_subscribe is set. Bad requests get success=false and a message;
+// the nodelet lives on.
 #pragma once
 
 #include "instant_motion_tracking/AddPlanarTarget.h"
@@ -38,6 +40,7 @@ class PlanarTargetNodelet : public nodelet::Nodelet {
   void onInit() override;
 
  private:
+  void updateSubscription();  // call with mutex_ held
   void motionCb(const instant_motion_tracking::MotionDataConstPtr& msg);
   void infoCb(const sensor_msgs::CameraInfoConstPtr& msg);
   bool addCb(instant_motion_tracking::AddPlanarTarget::Request& req,

@@ -1,0 +1,32 @@
+#include "instant_motion_tracking/core/anchor.h"
+
+namespace imt {
+
+Eigen::Matrix3d anchorOrientation(const Eigen::Matrix3d& R_world_cam_at_placement) {
+  const Eigen::Vector3d z = Eigen::Vector3d::UnitZ();
+  Eigen::Vector3d x = R_world_cam_at_placement.col(2);  // optical axis in the world
+  x.z() = 0;
+  if (x.norm() < 1e-6) {  // looking straight down or up: the image's down axis instead
+    x = R_world_cam_at_placement.col(1);
+    x.z() = 0;
+  }
+  x.normalize();
+  Eigen::Matrix3d R;
+  R.col(0) = x;
+  R.col(1) = z.cross(x);
+  R.col(2) = z;
+  return R;
+}
+
+Eigen::Isometry3d anchorPose(const cv::Point2d& pixel, double scale_ratio, double depth0,
+                             const CameraIntrinsics& k, const Eigen::Matrix3d& R_world_cam_now,
+                             const Eigen::Matrix3d& R_world_anchor) {
+  const Eigen::Vector3d ray =
+      Eigen::Vector3d((pixel.x - k.cx) / k.fx, (pixel.y - k.cy) / k.fy, 1.0).normalized();
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  T.translation() = depth0 * scale_ratio * ray;
+  T.linear() = R_world_cam_now.transpose() * R_world_anchor;
+  return T;
+}
+
+}  // namespace imt

@@ -7,7 +7,8 @@ Prints, per region, the mean IoU over the frames where the region is at least
 half in view (boxes clipped to the image), per planar target the median corner
 error, and for the camera motion the median and 95th-percentile transfer error
 of the estimated homography over a grid of points (frames with a planar
-background). Standard library only.
+background), and per anchor the median pixel and range errors while in view.
+Standard library only.
 """
 import csv
 import json
@@ -91,6 +92,23 @@ def main():
         corner.setdefault(int(row["id"]), []).append(math.sqrt(sum(x * x for x in e) / 4))
     for tid, e in sorted(corner.items()):
         print(f"planar target {tid}: corner error median {pct(e, 0.5):.2f} px, last frame {e[-1]:.2f} px")
+    score_anchors(truth, out, frame)
+
+
+def score_anchors(truth, out, frame):
+    px, rng = {}, {}
+    for row in csv.DictReader(open(os.path.join(out, "anchors.csv"))):
+        f = frame(row["stamp"])
+        gt = f and next((a for a in f["anchors"] if a["id"] == int(row["id"])), None)
+        if not gt or not gt["in_view"] or not row["u"]:
+            continue
+        aid = int(row["id"])
+        px.setdefault(aid, []).append(math.hypot(float(row["u"]) - gt["pixel"][0], float(row["v"]) - gt["pixel"][1]))
+        est = math.sqrt(sum(float(row[k]) ** 2 for k in ("tx", "ty", "tz")))
+        rng.setdefault(aid, []).append(abs(est / math.sqrt(sum(x * x for x in gt["t"])) - 1))
+    for aid in sorted(px):
+        print(f"anchor {aid}: pixel error median {pct(px[aid], 0.5):.2f} px in view, "
+              f"range error median {100 * pct(rng[aid], 0.5):.1f}%")
 
 
 if __name__ == "__main__":

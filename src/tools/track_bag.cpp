@@ -6,6 +6,8 @@
 //
 // On any bad input it exits non-zero with one line on stderr; warnings and
 // notes of a successful run are printed once each, after the run.
+#include "instant_motion_tracking/core/anchor.h"
+#include "instant_motion_tracking/core/imu_orientation.h"
 #include "instant_motion_tracking/core/pipeline.h"
 #include "instant_motion_tracking/io/config.h"
 #include "instant_motion_tracking/io/csv_writer.h"
@@ -400,10 +402,6 @@ class TrackBagRun {
         !targets_csv_.open(dir + "planar_targets.csv", imt::planarTargetColumns(), &err) ||
         !anchors_csv_.open(dir + "anchors.csv", imt::anchorColumns(), &err))
       fail(err);
-    // Trackers of later versions: their files hold the header only, said once.
-    if (!init_.anchors.empty())
-      notes_.note("anchor tracking is not implemented in this version; anchors.csv holds its "
-                  "header only");
 
     if (!args_.out_bag.empty()) {
       if (fs::equivalent(args_.out_bag, args_.bag, ec))
@@ -523,11 +521,34 @@ class TrackBagRun {
     intrinsics_source_ = "field_of_view";
   }
 
+  static constexpr uint32_t kAnchorRegionBase = 1000000000u;
+  struct AnchorTrack {
+    uint32_t id, region_id;
+    double stamp, depth, side;
+    bool has_imu = false;
+    Eigen::Matrix3d R_world_anchor = Eigen::Matrix3d::Identity(), R_world_cam0 = Eigen::Matrix3d::Identity();
+  };
+
+  // The bag's IMU stream integrated over the whole run (offline: the window
+  // spans the bag, up to an hour), rotated into the camera by /tf_static.
+  std::unique_ptr<imt::ImuOrientation> anchorImu() {
+    const auto& samples = pipeline_->imuSamples();
+    if (samples.size() < 2) return nullptr;
+    imt::ImuOptions o = config_.pipeline.imu;
+    o.window_seconds = std::min(3600.0, std::max(o.window_seconds, samples.back().stamp - samples.front().stamp + 1.0));
+    auto imu = std::make_unique<imt::ImuOrientation>(o);
+    if (q_cam_imu_) imu->setRotationCamImu(*q_cam_imu_);
+    size_t dropped = 0;
+    for (const imt::ImuSample& s : samples) dropped += !imu->add(s);
+    if (dropped) notes_.warn("the IMU orientation dropped " + std::to_string(dropped) + " sample(s) (NaN or out of order)");
+    return imu->empty() ? nullptr : std::move(imu);
+  }
+
   // Regions and planar targets of INIT.yaml, each given at its frame and
   // tracked over every frame of the run, backwards and forwards through the
   // motion-data cache; rows in frame order, then id order.
   void trackItems() {
-    if (init_.regions.empty() && init_.planar_targets.empty()) return;
+    if (init_.regions.empty() && init_.planar_targets.empty() && init_.anchors.empty()) return;
     Stopwatch clock;
     std::string err;
     const imt::MotionCache& cache = pipeline_->cache();
@@ -548,6 +569,32 @@ class TrackBagRun {
         fail(args_.init + ": planar_targets (id " + std::to_string(t.id) + "): " + err);
       target_ids.push_back(id);
     }
+    // Anchors: a region around the tapped pixel (ids above kAnchorRegionBase
+    // so they never meet INIT regions) + the IMU orientation.
+    const imt::CameraIntrinsics K = pipeline_->intrinsics();
+    const double side = 0.2 * std::min(K.width, K.height);
+    std::vector<AnchorTrack> anchors;
+    for (const imt::AnchorInit& a : init_.anchors) {
+      uint32_t id;
+      const cv::Rect2d box(a.point[0] - side / 2, a.point[1] - side / 2, side, side);
+      if (!pipeline_->regions().add(kAnchorRegionBase + a.id, a.stamp, box, &id, &err))
+        fail(args_.init + ": anchors (id " + std::to_string(a.id) + "): " + err);
+      anchors.push_back({a.id, id, a.stamp, a.depth, side});
+    }
+    std::unique_ptr<imt::ImuOrientation> imu;
+    if (!anchors.empty()) imu = anchorImu();
+    for (AnchorTrack& a : anchors) {
+      Eigen::Matrix3d R_wc0 = Eigen::Matrix3d::Identity();
+      a.has_imu = imu && imu->R_world_cam(a.stamp, &R_wc0);
+      // Without the IMU: "up" is the image's up at placement, and the anchor
+      // keeps that orientation relative to the camera (status no_imu).
+      if (!a.has_imu) R_wc0 = (Eigen::Matrix3d() << 1, 0, 0, 0, 0, 1, 0, -1, 0).finished();
+      a.R_world_anchor = imt::anchorOrientation(R_wc0);
+      a.R_world_cam0 = R_wc0;
+    }
+    if (!anchors.empty() && !imu)
+      notes_.warn("no usable IMU in the bag: anchors are translation-only (status no_imu)");
+
     size_t missing = 0;
     for (const FrameOut& f : frames_out_) {
       uint64_t seq;
@@ -565,6 +612,22 @@ class TrackBagRun {
         if (!pipeline_->planarTargets().stateAt(id, seq, cache, &st, &err)) fail(err);
         if (!targets_csv_.write(imt::planarTargetRow(st), &err)) fail(err);
         targets.push_back(st);
+      }
+      for (const AnchorTrack& a : anchors) {
+        std::vector<imt::RegionState> st;
+        if (!pipeline_->regions().seek(f.stamp, {a.region_id}, &st, &err)) fail(err);
+        const imt::RegionState& r = st[0];
+        Eigen::Matrix3d R_wc = a.R_world_cam0;
+        const bool imu_ok = a.has_imu && imu->R_world_cam(f.stamp, &R_wc);
+        const bool estimate = r.status != imt::RegionStatus::kLost;
+        const cv::Point2d uv(r.box.x + r.box.width / 2, r.box.y + r.box.height / 2);
+        const Eigen::Isometry3d T =
+            imt::anchorPose(uv, estimate ? a.side / r.box.width : 1.0, a.depth, K, R_wc, a.R_world_anchor);
+        std::string status = r.status == imt::RegionStatus::kOutOfView ? "out_of_view"
+                             : r.status == imt::RegionStatus::kLost    ? "lost"
+                                                                       : "tracked";
+        if (estimate && !imu_ok) status = "no_imu";
+        if (!anchors_csv_.write(imt::anchorRow(f.stamp, a.id, uv, T, status, estimate), &err)) fail(err);
       }
       if (out_bag_) {
         try {

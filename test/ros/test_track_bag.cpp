@@ -358,12 +358,17 @@ TEST_F(TrackBag, InitEntriesAtAnyFrameOutBagAndRotationFromTfStatic) {
   const ToolRun r = run("--bag " + quote(good_) + " --init " + quote(init) + " --out-dir " +
                     quote(out) + " --out-bag " + quote(out_bag));
   ASSERT_EQ(r.status, 0) << r.err;
-  // A note for the tracker that is not implemented yet (anchors); no
-  // progress bar (stderr is a file, not a terminal).
-  EXPECT_EQ(r.errLines(),
-            (std::vector<std::string>{
-                "track_bag: note: anchor tracking is not implemented in this version; anchors.csv holds its header only"}));
-  EXPECT_EQ(readCsv(out + "/anchors.csv").size(), 1u);  // header only: no fake rows
+  // Nothing to say; no progress bar (stderr is a file, not a terminal).
+  EXPECT_EQ(r.errLines(), std::vector<std::string>{}) << r.err;
+  // The anchor (given at frame 3) has a row for every frame; at its own frame
+  // it sits at the tapped pixel, 1 m (the default depth) along its ray.
+  const auto anchors = readCsv(out + "/anchors.csv");
+  ASSERT_EQ(anchors.size(), 1u + 20);
+  EXPECT_EQ(anchors[1 + 3][1], "2");
+  EXPECT_NEAR(std::stod(anchors[1 + 3][2]), 80.0, 1e-6);
+  EXPECT_NEAR(std::stod(anchors[1 + 3][3]), 60.0, 1e-6);
+  const double tx = std::stod(anchors[1 + 3][4]), ty = std::stod(anchors[1 + 3][5]), tz = std::stod(anchors[1 + 3][6]);
+  EXPECT_NEAR(std::sqrt(tx * tx + ty * ty + tz * tz), 1.0, 1e-6);
   // The region (given at frame 10) and the planar target (given at the last
   // frame) have a row for every frame of the bag, backwards and forwards.
   const auto regions = readCsv(out + "/regions.csv");

@@ -45,6 +45,7 @@ class Pipeline {
   const CameraIntrinsics& intrinsics() const { return intrinsics_; }
   void addImu(const ImuSample& s) { imu_.push_back(s); }
   size_t imuCount() const { return imu_.size(); }
+  const std::vector<ImuSample>& imuSamples() const { return imu_; }
 
   // Processes one gray frame (CV_8UC1).
   FrameResult processFrame(const cv::Mat& gray, double stamp);

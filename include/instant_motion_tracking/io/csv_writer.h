@@ -88,5 +88,8 @@ CsvRow cameraMotionRow(const MotionData& md);
 CsvRow regionRow(const RegionState& s);
 // One planar_targets.csv row (every estimate column empty when lost).
 CsvRow planarTargetRow(const PlanarTargetState& s);
+// One anchors.csv row; the estimate columns are empty when `has_estimate` is false.
+CsvRow anchorRow(double stamp, uint32_t id, const cv::Point2d& uv, const Eigen::Isometry3d& T_cam_anchor,
+                 const std::string& status, bool has_estimate);
 
 }  // namespace imt

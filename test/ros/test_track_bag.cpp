@@ -497,6 +497,24 @@ TEST_F(TrackBag, NoCameraInfoNoTfAndNanImuAreNotedOnce) {
   EXPECT_EQ(j["intrinsics"]["source"], "field_of_view");
 }
 
+TEST_F(TrackBag, AnchorsWithoutImuAreTranslationOnly) {
+  BagSpec spec;
+  spec.imu = false;
+  const std::string init = writeText("init_anchor.yaml", "anchors:\n  - {id: 4, stamp: 1000.0, point: [80, 60], depth: 2.0}\n");
+  const std::string out = path("out_noimu");
+  const ToolRun r = run("--bag " + quote(makeBag("noimu.bag", spec)) + " --init " + quote(init) +
+                        " --out-dir " + quote(out));
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_EQ(r.errLines(), (std::vector<std::string>{
+                              "track_bag: warning: no usable IMU in the bag: anchors are translation-only (status no_imu)"}));
+  const auto rows = readCsv(out + "/anchors.csv");
+  ASSERT_EQ(rows.size(), 1u + spec.frames);
+  for (size_t i = 1; i < rows.size(); ++i) EXPECT_EQ(rows[i][11], "no_imu") << i;
+  // At its frame: the tapped pixel, 2 m along its ray (the given depth).
+  const double tx = std::stod(rows[1][4]), ty = std::stod(rows[1][5]), tz = std::stod(rows[1][6]);
+  EXPECT_NEAR(std::sqrt(tx * tx + ty * ty + tz * tz), 2.0, 1e-6);
+}
+
 TEST_F(TrackBag, DecoderWarningsBecomeOneCountedWarning) {
   // libpng decodes a PNG whose ancillary tEXt chunk has a bad CRC and prints
   // "libpng warning: tEXt: CRC error" on stderr; the tool captures that and

@@ -3,17 +3,16 @@
 // that motion_data arrives for every image, in order, with the image stamps.
 #include "instant_motion_tracking/MotionData.h"
 
+#include "rostest_util.h"
+
 #include <gtest/gtest.h>
 #include <ros/ros.h>
 #include <rosbag/bag.h>
 #include <rosbag/view.h>
 #include <sensor_msgs/Image.h>
 
-#include <csignal>
 #include <cstdlib>
 #include <string>
-#include <sys/wait.h>
-#include <unistd.h>
 #include <vector>
 
 namespace {
@@ -24,17 +23,9 @@ std::string makeTempDir() {
   return dir ? dir : "";
 }
 
-// Polls `done` with wall time (the graph may run on sim time).
-template <class F>
-bool spinUntil(F done, double timeout_s) {
-  const ros::WallTime end = ros::WallTime::now() + ros::WallDuration(timeout_s);
-  while (ros::ok() && ros::WallTime::now() < end) {
-    ros::spinOnce();
-    if (done()) return true;
-    ros::WallDuration(0.01).sleep();
-  }
-  return done();
-}
+using imt::test::playImages;
+using imt::test::spinUntil;
+using imt::test::stopPlayer;
 
 TEST(MotionAnalysisNodelet, MotionDataArrivesWithTheImageStamps) {
   const std::string dir = makeTempDir();
@@ -68,17 +59,11 @@ TEST(MotionAnalysisNodelet, MotionDataArrivesWithTheImageStamps) {
       << "the nodelet never advertised motion_data";
 
   // Play only the images, once the (lazy) nodelet has subscribed to them.
-  const pid_t player = fork();
-  if (player == 0) {
-    execl("/usr/lib/rosbag/play", "play", "--quiet", "--wait-for-subscribers", "--topics",
-          "/camera/image_raw", "--bags", bag_path.c_str(), static_cast<char*>(nullptr));
-    _exit(127);
-  }
+  const pid_t player = playImages(bag_path);
   ASSERT_GT(player, 0);
   const bool all = spinUntil([&] { return received.size() >= stamps.size(); }, 60.0);
   spinUntil([] { return false; }, 0.5);  // anything extra would show up now
-  kill(player, SIGINT);
-  waitpid(player, nullptr, 0);
+  stopPlayer(player);
   ASSERT_TRUE(all) << "received " << received.size() << " of " << stamps.size() << " motion_data messages";
 
   ASSERT_EQ(received.size(), stamps.size());

@@ -10,18 +10,17 @@
 #include "instant_motion_tracking/SeekRegions.h"
 #include "instant_motion_tracking/TrackedRegionArray.h"
 
+#include "rostest_util.h"
+
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 #include <opencv2/core.hpp>
 #include <ros/ros.h>
 
-#include <csignal>
 #include <cstdlib>
 #include <fstream>
 #include <map>
 #include <string>
-#include <sys/wait.h>
-#include <unistd.h>
 
 namespace {
 
@@ -30,16 +29,9 @@ using instant_motion_tracking::AddRegion;
 using instant_motion_tracking::RemoveRegion;
 using instant_motion_tracking::SeekRegions;
 
-template <class F>
-bool spinUntil(F done, double timeout_s) {
-  const ros::WallTime end = ros::WallTime::now() + ros::WallDuration(timeout_s);
-  while (ros::ok() && ros::WallTime::now() < end) {
-    ros::spinOnce();
-    if (done()) return true;
-    ros::WallDuration(0.01).sleep();
-  }
-  return done();
-}
+using imt::test::playImages;
+using imt::test::spinUntil;
+using imt::test::stopPlayer;
 
 cv::Rect2d clip(const cv::Rect2d& b) { return b & cv::Rect2d(0, 0, 640, 480); }
 
@@ -76,12 +68,7 @@ TEST(TrackerServices, AddInThePastBadRequestsAndSeek) {
   ASSERT_TRUE(ros::service::waitForService("add_region", ros::Duration(60)));
   ASSERT_TRUE(ros::service::waitForService("add_planar_target", ros::Duration(60)));
 
-  const pid_t player = fork();
-  if (player == 0) {
-    execl("/usr/lib/rosbag/play", "play", "--quiet", "--wait-for-subscribers", "--topics", "/camera/image_raw",
-          "--bags", bag.c_str(), static_cast<char*>(nullptr));
-    _exit(127);
-  }
+  const pid_t player = playImages(bag);
   ASSERT_GT(player, 0);
   ASSERT_TRUE(spinUntil([&] { return received.size() >= 60; }, 60.0)) << received.size() << " frames";
 
@@ -148,8 +135,7 @@ TEST(TrackerServices, AddInThePastBadRequestsAndSeek) {
   // Play to the end; the region rides along in every regions message.
   const bool all = spinUntil([&] { return received.size() >= n; }, 60.0);
   spinUntil([] { return false; }, 0.5);
-  kill(player, SIGINT);
-  waitpid(player, nullptr, 0);
+  stopPlayer(player);
   ASSERT_TRUE(all) << received.size() << " of " << n;
   const auto& last = received.back();
   ASSERT_EQ(last.regions.size(), 1u);

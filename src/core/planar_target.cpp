@@ -95,6 +95,13 @@ std::string validateQuad(const std::array<cv::Point2d, 4>& c) {
   return "";
 }
 
+std::string validateTargetRequest(const std::array<cv::Point2d, 4>& corners, double width_m, double height_m) {
+  if (std::string e = validateQuad(corners); !e.empty()) return e;
+  if (!(width_m > 0) || !(height_m > 0) || !std::isfinite(width_m) || !std::isfinite(height_m))
+    return "target size must be positive (got " + std::to_string(width_m) + " x " + std::to_string(height_m) + " m)";
+  return "";
+}
+
 std::unique_ptr<PlanarTargetTracker> PlanarTargetTracker::create(
     const PlanarTargetOptions& options, uint32_t id, const std::array<cv::Point2d, 4>& corners,
     double width_m, double height_m, const CameraIntrinsics& k, const MotionData& md,
@@ -103,16 +110,12 @@ std::unique_ptr<PlanarTargetTracker> PlanarTargetTracker::create(
     *error = e;
     return nullptr;
   }
-  if (!(width_m > 0) || !(height_m > 0) || !std::isfinite(width_m) || !std::isfinite(height_m)) {
-    *error = "target size must be positive (got " + std::to_string(width_m) + " x " + std::to_string(height_m) + " m)";
+  if (std::string e = validateTargetRequest(corners, width_m, height_m); !e.empty()) {
+    *error = e;
     return nullptr;
   }
   if (!k.valid || !(k.fx > 0) || !(k.fy > 0)) {
     *error = "camera intrinsics are not valid";
-    return nullptr;
-  }
-  if (std::string e = validateQuad(corners); !e.empty()) {
-    *error = e;
     return nullptr;
   }
   std::unique_ptr<PlanarTargetTracker> t(new PlanarTargetTracker);

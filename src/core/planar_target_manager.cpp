@@ -1,7 +1,5 @@
 #include "instant_motion_tracking/core/planar_target_manager.h"
 
-#include <cmath>
-
 namespace imt {
 
 const PlanarTargetState& PlanarTargetManager::advance(Target& t, uint64_t seq, const MotionCache& cache) {
@@ -47,12 +45,8 @@ bool PlanarTargetManager::add(uint32_t id, double stamp, const std::array<cv::Po
     return false;
   }
   // The request itself first, so a bad quad is named even before any frame.
-  if (std::string e = validateQuad(corners); !e.empty()) {
+  if (std::string e = validateTargetRequest(corners, width_m, height_m); !e.empty()) {
     *error = e;
-    return false;
-  }
-  if (!(width_m > 0) || !(height_m > 0) || !std::isfinite(width_m) || !std::isfinite(height_m)) {
-    *error = "target size must be positive (got " + std::to_string(width_m) + " x " + std::to_string(height_m) + " m)";
     return false;
   }
   uint64_t seq;

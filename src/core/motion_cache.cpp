@@ -18,9 +18,25 @@ std::string fmtStamp(double s) {
 void MotionCache::clear() {
   first_seq_ += frames_.size();  // sequence numbers never repeat
   frames_.clear();
+  images_.clear();
+  image_bytes_ = 0;
+  oldest_image_ = 0;
 }
 
-bool MotionCache::push(const MotionData& md, std::string* reset_reason) {
+void MotionCache::setImageBudget(size_t bytes) {
+  image_budget_ = bytes;
+  trimImages();
+}
+
+void MotionCache::trimImages() {
+  while (image_bytes_ > image_budget_ && oldest_image_ < images_.size()) {
+    cv::Mat& im = images_[oldest_image_++];
+    image_bytes_ -= im.total() * im.elemSize();
+    im.release();
+  }
+}
+
+bool MotionCache::push(const MotionData& md, std::string* reset_reason, const cv::Mat& image) {
   bool ok = true;
   const cv::Size size(md.width, md.height);
   if (!frames_.empty() && !(md.stamp > frames_.back().stamp)) {
@@ -36,12 +52,23 @@ bool MotionCache::push(const MotionData& md, std::string* reset_reason) {
   size_ = size;
   frames_.push_back(md);
   if (!frames_.back().sorted_by_x) frames_.back().sortByX();
+  const size_t bytes = image.total() * image.elemSize();
+  if (!image.empty() && image.type() == CV_8UC1 && bytes <= image_budget_) {
+    images_.push_back(image);
+    image_bytes_ += bytes;
+  } else {
+    images_.emplace_back();
+  }
   if (seconds_ > 0) {
     while (frames_.size() > 1 && frames_.back().stamp - frames_.front().stamp > seconds_) {
       frames_.pop_front();
+      image_bytes_ -= images_.front().total() * images_.front().elemSize();
+      images_.pop_front();
+      if (oldest_image_ > 0) --oldest_image_;
       ++first_seq_;
     }
   }
+  trimImages();
   return ok;
 }
 

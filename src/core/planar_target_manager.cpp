@@ -7,14 +7,14 @@ const PlanarTargetState& PlanarTargetManager::advance(Target& t, uint64_t seq, c
   while (t.seq_fwd < seq) {
     const bool valid = cache.cameraMotion(t.seq_fwd, t.seq_fwd + 1, &H);
     ++t.seq_fwd;
-    t.states[t.seq_fwd] = t.forward->step(cache.at(t.seq_fwd), H, valid);
+    t.states[t.seq_fwd] = t.forward->step(cache.at(t.seq_fwd), H, valid, cache.image(t.seq_fwd));
   }
   if (seq < t.seq_bwd) {
     if (!t.backward) return t.states.at(t.seq_bwd);  // no backward copy: never happens
     while (t.seq_bwd > seq && t.seq_bwd > cache.firstSeq()) {
       const bool valid = cache.cameraMotion(t.seq_bwd, t.seq_bwd - 1, &H);
       --t.seq_bwd;
-      t.states[t.seq_bwd] = t.backward->step(cache.at(t.seq_bwd), H, valid);
+      t.states[t.seq_bwd] = t.backward->step(cache.at(t.seq_bwd), H, valid, cache.image(t.seq_bwd));
     }
   }
   return t.states.at(seq);
@@ -55,7 +55,8 @@ bool PlanarTargetManager::add(uint32_t id, double stamp, const std::array<cv::Po
     id = 1;
     while (targets_.count(id)) ++id;
   }
-  auto tracker = PlanarTargetTracker::create(options_, id, corners, width_m, height_m, k, cache.at(seq), error);
+  auto tracker =
+      PlanarTargetTracker::create(options_, id, corners, width_m, height_m, k, cache.at(seq), error, cache.image(seq));
   if (!tracker) return false;
   Target t;
   t.backward = std::make_unique<PlanarTargetTracker>(*tracker);

@@ -12,9 +12,9 @@ void RegionManager::clear() {
   regions_.clear();
 }
 
-std::vector<RegionState> RegionManager::update(const MotionData& md) {
+std::vector<RegionState> RegionManager::update(const MotionData& md, const cv::Mat& image) {
   last_reset_.clear();
-  if (!cache_.push(md, &last_reset_)) {
+  if (!cache_.push(md, &last_reset_, image)) {
     regions_.clear();
     last_reset_ += "; regions cleared";
   }

@@ -418,6 +418,9 @@ class TrackBagRun {
     // The whole bag stays in the motion-data cache: items given at any frame
     // are then tracked backwards and forwards from it (trackItems()).
     pipeline_ = std::make_unique<imt::Pipeline>(config_.pipeline, /*keep_all_motion_data=*/true);
+    // Frames for the planar targets' appearance alignment, only when there are
+    // targets (within planar_tracking.image_memory_mb; the oldest go first).
+    pipeline_->setKeepImages(!init_.planar_targets.empty());
     progress_ = std::make_unique<Progress>(input_.frameStamps().size(),
                                            !args_.quiet && isatty(STDERR_FILENO));
     imt::BagInput::Callbacks cb;

@@ -63,6 +63,7 @@ PotResult runPot(const std::string& seq, int frames, const std::string& model) {
   MotionAnalysisOptions mo;
   MotionAnalyzer analyzer(mo);
   MotionCache cache(0.0);
+  cache.setImageBudget(size_t(1) << 30);  // the appearance alignment uses every frame
   PlanarTargetOptions po;
   po.model = model;
   PlanarTargetManager targets(po);
@@ -81,7 +82,7 @@ PotResult runPot(const std::string& seq, int frames, const std::string& model) {
     if (gray.empty()) return res;
     const auto t0 = std::chrono::steady_clock::now();
     std::string err;
-    cache.push(analyzer.process(gray, f / 30.0), &err);
+    cache.push(analyzer.process(gray, f / 30.0), &err, gray);
     std::vector<PlanarTargetState> states;
     if (f == 1) {
       const CameraIntrinsics k = CameraIntrinsics::fromFieldOfView(gray.cols, gray.rows, 60.0);
@@ -96,6 +97,9 @@ PotResult runPot(const std::string& seq, int frames, const std::string& model) {
     double sq = 0;
     for (int i = 0; i < 4; ++i) sq += std::pow(cv::norm(states[0].corners[i] - cv::Point2d(g[2 * i], g[2 * i + 1])), 2);
     errors.push_back(std::sqrt(sq / 4));
+    if (std::getenv("IMT_TEST_TRACE"))  // per-frame trace for tuning
+      std::printf("%d err %.2f cc %.3f pts %d st %d\n", f, errors.back(), states[0].correlation, states[0].points,
+                  static_cast<int>(states[0].status));
   }
   int good = 0;
   for (double e : errors) good += e <= 5.0;

@@ -12,6 +12,7 @@
 
 #include <algorithm>
 #include <cstdio>
+#include <cstdlib>
 
 namespace imt {
 namespace {
@@ -31,9 +32,11 @@ class PosterOrbit : public ::testing::Test {
     ASSERT_TRUE(scene_) << err;
     MotionAnalyzer analyzer{MotionAnalysisOptions()};
     cache_ = new MotionCache(0.0);
+    cache_->setImageBudget(size_t(1) << 30);  // every frame: the appearance alignment uses them
     for (int i = 0; i < scene_->frameCount(); ++i) {
       std::string reset;
-      cache_->push(analyzer.process(scene_->renderFrame(i), scene_->frameStamp(i)), &reset);
+      const cv::Mat frame = scene_->renderFrame(i);
+      cache_->push(analyzer.process(frame, scene_->frameStamp(i)), &reset, frame);
       truth_.push_back(scene_->frameTruth(i));
     }
   }
@@ -65,6 +68,9 @@ class PosterOrbit : public ::testing::Test {
       double sq = 0;
       for (int c = 0; c < 4; ++c) sq += std::pow(cv::norm(s.corners[c] - t.corners[c]), 2);
       e.corners.push_back(std::sqrt(sq / 4));
+      if (std::getenv("IMT_TEST_TRACE"))  // per-frame trace for tuning
+        std::printf("%lu err %.2f cc %.3f pts %d st %d conf %.2f\n", (unsigned long)seq, e.corners.back(),
+                    s.correlation, s.points, (int)s.status, s.confidence);
       const Eigen::AngleAxisd dR(t.T_cam_target.linear().transpose() * s.T_cam_target.linear());
       e.rot_deg.push_back(std::abs(dR.angle()) * 180 / M_PI);
       e.trans_rel.push_back((s.T_cam_target.translation() - t.T_cam_target.translation()).norm() /
@@ -86,12 +92,10 @@ SceneGenerator* PosterOrbit::scene_ = nullptr;
 MotionCache* PosterOrbit::cache_ = nullptr;
 std::vector<FrameTruth> PosterOrbit::truth_;
 
-// DISABLED until the feature positions stop drifting (issue 5 note): on this
-// scene the rigid pose reaches 13.8 px median with the default analysis at
-// 320 px, 1.3-1.5 px at full resolution; frame-to-frame LK positions drift
-// along long tracks, and the model's plane points inherit that drift. Run
-// with --gtest_also_run_disabled_tests --gtest_filter='PosterOrbit*'.
-TEST_F(PosterOrbit, DISABLED_RigidPoseMeetsThePotTargetsWithoutDrift) {
+// The perspective model with the appearance alignment (refine: true): the
+// features carry the pose from frame to frame, the alignment of the
+// placement-time template removes what their drift would add up to.
+TEST_F(PosterOrbit, RigidPoseMeetsThePotTargetsWithoutDrift) {
   ASSERT_EQ(truth_.size(), 600u);
   const Errors e = track("perspective");
   // The issue's bars: alignment median <= 0.5 px, p95 <= 1.5 px, last frame
@@ -103,12 +107,13 @@ TEST_F(PosterOrbit, DISABLED_RigidPoseMeetsThePotTargetsWithoutDrift) {
   EXPECT_LE(percentile(e.trans_rel, 0.5), 0.01);
 }
 
-TEST_F(PosterOrbit, DISABLED_ChainedHomographyMeasuredForComparison) {
+TEST_F(PosterOrbit, ChainedHomographyMeasuredForComparison) {
   const Errors h = track("homography");
   ASSERT_EQ(h.corners.size(), 599u);
-  // Reported for the comparison table; it must at least keep the poster
-  // (a broken option would not).
-  EXPECT_LT(percentile(h.corners, 0.5), 20.0);
+  // Reported for the comparison table (measured 3.2 px median, 7.5 px on the
+  // last frame: the chained model's skew drift). The bound only says it keeps
+  // the poster; a broken option would lose it (tens of px).
+  EXPECT_LT(percentile(h.corners, 0.5), 10.0);
 }
 
 }  // namespace

@@ -78,6 +78,37 @@ TEST(RegionManager, CacheIsBoundedAndOldStampsAreRejected) {
   EXPECT_NE(err.find("outside the motion-data cache"), std::string::npos) << err;
 }
 
+TEST(MotionCache, ImagesStayWithinTheirBudgetOldestDroppedFirst) {
+  const World w = cardWorld();
+  const auto md = w.motionData(20);
+  MotionCache cache(0.0);
+  const size_t one = static_cast<size_t>(md[0].width) * md[0].height;  // bytes of one gray frame
+  cache.setImageBudget(3 * one + one / 2);  // room for 3 frames, not 4
+  std::string err;
+  for (int k = 0; k < 10; ++k) {
+    cv::Mat gray(md[k].height, md[k].width, CV_8UC1, cv::Scalar(k));
+    ASSERT_TRUE(cache.push(md[k], &err, gray)) << err;
+  }
+  EXPECT_EQ(cache.imageBytes(), 3 * one);
+  for (uint64_t seq = cache.firstSeq(); seq <= cache.lastSeq(); ++seq) {
+    const int k = static_cast<int>(seq - cache.firstSeq());
+    ASSERT_EQ(cache.image(seq).empty(), k < 7) << "frame " << k;
+    if (k >= 7) EXPECT_EQ(cache.image(seq).at<uchar>(0, 0), k);  // each frame keeps its own image
+  }
+  // A colour image or one larger than the budget is not kept; frames still are.
+  ASSERT_TRUE(cache.push(md[10], &err, cv::Mat(md[10].height, md[10].width, CV_8UC3))) << err;
+  EXPECT_TRUE(cache.image(cache.lastSeq()).empty());
+  EXPECT_EQ(cache.size(), 11u);
+  cache.setImageBudget(0);
+  EXPECT_EQ(cache.imageBytes(), 0u);
+  // A reset (time going backwards) clears the images with the frames.
+  cache.setImageBudget(3 * one);
+  ASSERT_TRUE(cache.push(md[11], &err, cv::Mat(md[11].height, md[11].width, CV_8UC1))) << err;
+  EXPECT_FALSE(cache.push(md[5], &err, cv::Mat(md[5].height, md[5].width, CV_8UC1)));
+  EXPECT_EQ(cache.size(), 1u);
+  EXPECT_EQ(cache.imageBytes(), one);
+}
+
 struct BadAdd {
   const char* name;
   uint32_t id;

@@ -1,7 +1,9 @@
 // A bounded ring buffer of motion data, addressed by a frame sequence number
 // that keeps increasing while frames arrive (so positions stay valid as old
 // frames are dropped). The trackers' random access (items added in the past,
-// tracked backwards and forwards, seek) works on it.
+// tracked backwards and forwards, seek) works on it. Optionally it also keeps
+// each frame's gray image, within a memory budget (the planar targets align
+// their appearance with them); the oldest images go first.
 //
 // Usage:
 //   imt::MotionCache cache(10.0);           // seconds kept; <= 0 keeps everything
@@ -13,6 +15,8 @@
 #pragma once
 
 #include "instant_motion_tracking/core/types.h"
+
+#include <opencv2/core.hpp>
 
 #include <deque>
 #include <string>
@@ -26,7 +30,8 @@ class MotionCache {
   // Appends `md` (its features sorted by x, see MotionData::sortByX). When its
   // stamp does not increase or the image size changes, the cache is cleared
   // first and false is returned with the reason; `md` is still added.
-  bool push(const MotionData& md, std::string* reset_reason);
+  // `image` (optional, CV_8UC1) is kept while the image budget allows.
+  bool push(const MotionData& md, std::string* reset_reason, const cv::Mat& image = cv::Mat());
   void clear();
 
   bool empty() const { return frames_.empty(); }
@@ -34,6 +39,12 @@ class MotionCache {
   uint64_t firstSeq() const { return first_seq_; }
   uint64_t lastSeq() const { return first_seq_ + frames_.size() - 1; }  // only when !empty()
   const MotionData& at(uint64_t seq) const { return frames_[seq - first_seq_]; }
+  // The gray image kept with frame `seq`; empty when none was given or it was
+  // dropped to stay within the budget.
+  const cv::Mat& image(uint64_t seq) const { return images_[seq - first_seq_]; }
+  // Bytes of images kept at most (0, the default: none).
+  void setImageBudget(size_t bytes);
+  size_t imageBytes() const { return image_bytes_; }
   cv::Size imageSize() const { return size_; }
   double oldestStamp() const { return frames_.empty() ? 0 : frames_.front().stamp; }
   double newestStamp() const { return frames_.empty() ? 0 : frames_.back().stamp; }
@@ -49,7 +60,12 @@ class MotionCache {
 
  private:
   double seconds_;
+  void trimImages();
+
   std::deque<MotionData> frames_;
+  std::deque<cv::Mat> images_;  // parallel to frames_
+  size_t image_budget_ = 0, image_bytes_ = 0;
+  size_t oldest_image_ = 0;  // index into images_ below which all are empty
   uint64_t first_seq_ = 0;
   cv::Size size_;
 };

@@ -47,6 +47,10 @@ class Pipeline {
   size_t imuCount() const { return imu_.size(); }
   const std::vector<ImuSample>& imuSamples() const { return imu_; }
 
+  // Whether frames are kept (within planar_tracking.image_memory_mb) for the
+  // planar targets' appearance alignment; on by default when it is enabled.
+  // track_bag turns it off for bags without planar targets.
+  void setKeepImages(bool keep);
   // Processes one gray frame (CV_8UC1).
   FrameResult processFrame(const cv::Mat& gray, double stamp);
   // Why the last frame reset the analysis ("" when it did not).
@@ -67,6 +71,7 @@ class Pipeline {
   RegionManager regions_;
   PlanarTargetManager targets_;
   StageTimes times_;
+  bool keep_images_ = false;
 };
 
 }  // namespace imt

@@ -41,6 +41,11 @@ struct PlanarTargetOptions {
   double join_error = 1.0;            // px; a new point joins when its second observation agrees this well
   int min_points = 6;                 // fewer model points visible: predicted by the camera motion
   double confidence_points = 30;      // model points at which confidence reaches 1
+  bool refine = true;                 // align the target's look at placement with each frame (ECC)
+  int template_size = 256;            // px; long side of the rectified template kept at placement
+  double refine_min_correlation = 0.75;  // ECC correlation below which an alignment is not used
+  double refine_max_correction = 0.15;   // fraction of the target's size on screen; larger corrections are not used
+  double image_memory_mb = 512;       // MB of gray frames kept for the alignment (oldest dropped first)
 
   template <class V>
   void visit(V& v) {
@@ -51,6 +56,12 @@ struct PlanarTargetOptions {
     v("join_error", join_error, "px; a new point joins when its second observation agrees this well");
     v("min_points", min_points, "fewer model points visible: predicted by the camera motion");
     v("confidence_points", confidence_points, "model points at which confidence reaches 1");
+    v("refine", refine, "align the target's look at placement with each frame (ECC): no drift");
+    v("template_size", template_size, "px; long side of the rectified template kept at placement");
+    v("refine_min_correlation", refine_min_correlation, "ECC correlation below which an alignment is not used");
+    v("refine_max_correction", refine_max_correction,
+      "fraction of the target's size on screen; larger corrections are not used");
+    v("image_memory_mb", image_memory_mb, "MB of gray frames kept for the alignment (oldest dropped first)");
   }
   std::string validate() const;
 };
@@ -68,6 +79,7 @@ struct PlanarTargetState {
   double confidence = 0;
   int points = 0;          // model points that supported this frame's pose
   double rms_error = 0;    // px, reprojection RMS of those points
+  double correlation = 0;  // ECC correlation of the appearance alignment (0: not aligned this frame)
   std::string reason;      // why lost
 };
 
@@ -81,17 +93,22 @@ std::string validateTargetRequest(const std::array<cv::Point2d, 4>& corners, dou
 class PlanarTargetTracker {
  public:
   // Fails (nullptr + message) on a bad quad or size, or invalid intrinsics.
+  // `gray` (optional, the frame of `md`) gives the target's appearance; without
+  // it the appearance is taken from the first frame step() gets an image with.
   static std::unique_ptr<PlanarTargetTracker> create(const PlanarTargetOptions& options, uint32_t id,
                                                      const std::array<cv::Point2d, 4>& corners,
                                                      double width_m, double height_m,
                                                      const CameraIntrinsics& k, const MotionData& md,
-                                                     std::string* error);
+                                                     std::string* error, const cv::Mat& gray = cv::Mat());
 
   // Moves the target to the frame of `md` (the next frame in either time
   // direction). `H_last_to_this` is the background motion from the last
   // frame to this one; used (when valid) to predict a target with too few
-  // visible points.
-  const PlanarTargetState& step(const MotionData& md, const Eigen::Matrix3d& H_last_to_this, bool H_valid);
+  // visible points. With `gray` (the frame's image, CV_8UC1) and `refine`,
+  // the pose from the features is then aligned with the target's appearance
+  // at placement, so errors of long feature tracks do not accumulate.
+  const PlanarTargetState& step(const MotionData& md, const Eigen::Matrix3d& H_last_to_this, bool H_valid,
+                                const cv::Mat& gray = cv::Mat());
   const PlanarTargetState& state() const { return state_; }
 
  private:
@@ -104,6 +121,12 @@ class PlanarTargetTracker {
   void stepPerspective(const MotionData& md);
   void stepHomography(const MotionData& md);
   void predict(const Eigen::Matrix3d& H);
+  // Appearance (template) alignment, see planar_target.cpp.
+  struct Appearance;
+  Eigen::Matrix3d planeToImage() const;
+  bool captureAppearance(const cv::Mat& gray);
+  bool refine(const cv::Mat& gray);
+  void dropDisagreeingPoints(const MotionData& md);
 
   PlanarTargetOptions options_;
   CameraIntrinsics k_;
@@ -112,6 +135,7 @@ class PlanarTargetTracker {
   std::map<uint32_t, Eigen::Vector2d> candidates_;  // first observation, awaiting confirmation
   std::map<uint32_t, bool> rejected_;               // ids that must not join again
   std::map<uint32_t, Eigen::Vector2d> last_px_;     // last frame's positions (homography model)
+  std::shared_ptr<const Appearance> appearance_;    // shared by copies (forward/backward)
 };
 
 }  // namespace imt

@@ -2,7 +2,8 @@
 // any cached frame is tracked forward to the newest frame at once, and
 // backwards from its initial frame on demand (track_bag produces every frame
 // of a bag this way). The cache is owned by the caller (shared with the
-// region manager in the pipeline).
+// region manager in the pipeline). Frames the cache keeps an image of are
+// also aligned with each target's appearance (PlanarTargetOptions::refine).
 //
 // Usage:
 //   imt::PlanarTargetManager targets(options.planar_tracking);

@@ -32,7 +32,9 @@ class RegionManager {
   // Appends the next frame's motion data and advances every region to it.
   // A stamp that does not increase, or a new image size, clears the cache and
   // every region (a bag loop or a camera change): `lastReset()` says so.
-  std::vector<RegionState> update(const MotionData& md);
+  // `image` is kept in the cache within its image budget (see MotionCache).
+  std::vector<RegionState> update(const MotionData& md, const cv::Mat& image = cv::Mat());
+  void setImageBudget(size_t bytes) { cache_.setImageBudget(bytes); }
 
   // Adds a region whose box is given at `stamp` (nearest cached frame within
   // half a frame interval; 0 = the latest frame). id 0 chooses a free id.

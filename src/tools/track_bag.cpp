@@ -58,7 +58,7 @@ options:
   --config FILE             parameter file (default: config/default.yaml of the
                             package, the file the nodelets load)
   --out-bag FILE            also write every output message to this bag
-                            (/motion_data, ...)
+                            (/motion_data, /regions, /planar_targets, /anchors, /tf)
   --start S, --end E        process only the part from S to E seconds after
                             the bag's first message (bag time, as rosbag play -s)
   --quiet                   no progress bar
@@ -614,19 +614,21 @@ class TrackBagRun {
       if (out_bag_) {
         try {
           if (!region_ids.empty()) out_bag_->write("/regions", f.bag_time, imt::toMsg(regions, f.header));
-          if (!target_ids.empty()) {
-            out_bag_->write("/planar_targets", f.bag_time, imt::toMsg(targets, f.header));
-            tf2_msgs::TFMessage tf;
-            tf.transforms = imt::planarTargetTransforms(targets, f.header, config_.ros.frame_prefix);
-            if (!tf.transforms.empty()) out_bag_->write("/tf", f.bag_time, tf);
-          }
+          if (!target_ids.empty()) out_bag_->write("/planar_targets", f.bag_time, imt::toMsg(targets, f.header));
+          if (!anchor_ids.empty()) out_bag_->write("/anchors", f.bag_time, imt::toMsg(anchor_states, f.header));
+          // One /tf message per frame: planar_target_<id> and anchor_<id>.
+          tf2_msgs::TFMessage tf;
+          tf.transforms = imt::planarTargetTransforms(targets, f.header, config_.ros.frame_prefix);
+          for (auto& t : imt::anchorTransforms(anchor_states, f.header, config_.ros.frame_prefix))
+            tf.transforms.push_back(t);
+          if (!tf.transforms.empty()) out_bag_->write("/tf", f.bag_time, tf);
         } catch (const std::exception& e) {
           fail("cannot write --out-bag '" + args_.out_bag + "': " + e.what());
         }
       }
     }
     if (missing)
-      notes_.warn(std::to_string(missing) + " frame(s) before a reset have no region or planar-target rows "
+      notes_.warn(std::to_string(missing) + " frame(s) before a reset have no region, planar-target or anchor rows "
                   "(the motion analysis restarted there)");
     stage_seconds_["track_items"] = clock.lap();
   }

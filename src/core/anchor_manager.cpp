@@ -94,12 +94,16 @@ ImuInput AnchorManager::addImu(const ImuSample& s, std::string* why) {
     if (why)
       *why = "IMU stamp " + num(s.stamp) + " is " + num(imu_.newestStamp() - s.stamp) +
              " s behind the previous one: IMU orientation restarted";
-    imu_.reset();
-    for (auto& [id, a] : anchors_) unbind(a);
+    resetImu();
     imu_.add(s);
     return ImuInput::kReset;
   }
   return imu_.add(s, why) ? ImuInput::kAccepted : ImuInput::kDropped;
+}
+
+void AnchorManager::resetImu() {
+  imu_.reset();
+  for (auto& [id, a] : anchors_) unbind(a);
 }
 
 void AnchorManager::update() {

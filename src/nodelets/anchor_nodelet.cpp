@@ -36,7 +36,7 @@ void AnchorNodelet::onInit() {
 }
 
 void AnchorNodelet::updateSubscription() {
-  const bool wanted = config_.ros.always_subscribe || anchors_->size() > 0 ||
+  const bool wanted = config_.ros.always_subscribe || anchors_->size() > 0 || awaiting_frames_ ||
                       anchors_pub_.getNumSubscribers() > 0 || markers_pub_.getNumSubscribers() > 0;
   ros::NodeHandle& nh = getNodeHandle();
   if (wanted && !motion_sub_) {
@@ -45,6 +45,10 @@ void AnchorNodelet::updateSubscription() {
   } else if (!wanted && motion_sub_) {
     motion_sub_.shutdown();
     imu_sub_.shutdown();
+    // No anchor is left; frames and IMU samples from before a gap would only mislead.
+    regions_->clear();
+    anchors_->resetImu();
+    pending_.clear();
   }
 }
 
@@ -159,7 +163,9 @@ bool AnchorNodelet::addCb(instant_motion_tracking::AddAnchor::Request& req,
   res.id = res.success ? id : 0;
   res.message = res.success ? "tracking anchor " + std::to_string(id) : error;
   if (!res.success) NODELET_WARN_THROTTLE(1.0, "add_anchor refused: %s", error.c_str());
-  if (!res.success && regions_->cachedFrames() == 0)
+  // Refused for want of frames: stay subscribed so that a retry finds some.
+  awaiting_frames_ = !res.success && regions_->cachedFrames() == 0;
+  if (awaiting_frames_)
     res.message += " (subscribed to " + getNodeHandle().resolveName("motion_data") + "; retry shortly)";
   updateSubscription();
   return true;

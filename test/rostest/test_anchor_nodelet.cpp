@@ -79,10 +79,6 @@ TEST(AnchorNodelet, AddedThroughTheServiceMatchesGroundTruthOnTopicAndTf) {
   ros::NodeHandle nh;
   tf2_ros::Buffer tf_buffer(ros::Duration(60));
   tf2_ros::TransformListener tf_listener(tf_buffer);
-  std::vector<AnchorArray> received;
-  ros::Subscriber sub = nh.subscribe<AnchorArray>("anchors", 1000, [&](const instant_motion_tracking::AnchorArrayConstPtr& m) {
-    received.push_back(*m);
-  });
   std::vector<std::string> warnings;  // of the anchor tracker, from /rosout
   ros::Subscriber log_sub = nh.subscribe<rosgraph_msgs::Log>("/rosout", 1000, [&](const rosgraph_msgs::LogConstPtr& m) {
     if (m->level >= rosgraph_msgs::Log::WARN && m->name.find("manager") != std::string::npos) warnings.push_back(m->msg);
@@ -90,11 +86,19 @@ TEST(AnchorNodelet, AddedThroughTheServiceMatchesGroundTruthOnTopicAndTf) {
   ros::Publisher imu_pub = nh.advertise<sensor_msgs::Imu>("/imu/data", 10);
   ASSERT_TRUE(ros::service::waitForService("add_anchor", ros::Duration(60)));
 
-  // Before any frame: refused, with a hint to retry.
+  // Before any frame: refused, with a hint to retry. Nothing subscribes to
+  // the nodelet's outputs yet (a tf-only user): the refusal itself must make
+  // it subscribe to its inputs, else the bag would not start playing.
   AddAnchor early = request(ros::Time(0), 0, 100, 100, 0);
   ASSERT_TRUE(ros::service::call("add_anchor", early));
   EXPECT_FALSE(early.response.success);
   EXPECT_NE(early.response.message.find("retry shortly"), std::string::npos) << early.response.message;
+  EXPECT_TRUE(imt::test::spinUntil([&] { return imu_pub.getNumSubscribers() > 0; }, 10.0))
+      << "the refused add_anchor should have subscribed the nodelet to imu";
+  std::vector<AnchorArray> received;
+  ros::Subscriber sub = nh.subscribe<AnchorArray>("anchors", 1000, [&](const instant_motion_tracking::AnchorArrayConstPtr& m) {
+    received.push_back(*m);
+  });
 
   const pid_t player =
       imt::test::playTopics(bag, {"/camera/image_raw", "/camera/camera_info", "/imu/data", "/tf_static"});

@@ -118,6 +118,9 @@ class AnchorManager {
   // orientation from the next frame the IMU covers.
   ImuInput addImu(const ImuSample& s, std::string* why = nullptr);
   const ImuOrientation& imu() const { return imu_; }
+  // Forgets every IMU sample (and the estimated bias); anchors re-take their
+  // world orientation from the next frame the IMU covers.
+  void resetImu();
 
   // After every RegionManager::update(): clears the anchors when it reset.
   void update();

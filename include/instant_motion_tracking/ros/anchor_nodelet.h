@@ -23,7 +23,8 @@
 //   default_hfov_deg, region_tracking/*, imu/*, anchors/*, publish_tf,
 //   frame_prefix, queue_size, always_subscribe.
 // motion_data and imu are subscribed while an output has a subscriber, an
-// anchor exists, or ~always_subscribe is set. Without IMU the anchors are
+// anchor exists, add_anchor was just refused for want of frames, or
+// ~always_subscribe is set (unsubscribing forgets the frames and the IMU). Without IMU the anchors are
 // translation-only (status no_imu, throttled warning). Motion data going back
 // in time clears the anchors. Bad requests get success=false and a message.
 #pragma once
@@ -70,6 +71,7 @@ class AnchorNodelet : public nodelet::Nodelet {
   std::deque<std_msgs::Header> pending_;  // frames waiting for the IMU
   std::string camera_frame_, imu_frame_;
   bool rotation_known_ = false, imu_seen_ = false;
+  bool awaiting_frames_ = false;  // an add_anchor was refused for want of frames: stay subscribed
   ros::Subscriber motion_sub_, info_sub_, imu_sub_;
   ros::Publisher anchors_pub_, markers_pub_;
   ros::ServiceServer add_srv_, remove_srv_;

@@ -25,16 +25,21 @@ std::string num(double v) {
 
 // The image's up as world z, for anchors without IMU orientation: the camera
 // looks level along world y (optical x = world x, optical y = world -z).
-const Eigen::Matrix3d kImageUpStandIn = (Eigen::Matrix3d() << 1, 0, 0, 0, 0, 1, 0, -1, 0).finished();
+const Eigen::Matrix3d kImageUpStandIn =
+    (Eigen::Matrix3d() << 1, 0, 0, 0, 0, 1, 0, -1, 0).finished();
 
 }  // namespace
 
 const char* anchorStatusName(AnchorStatus s) {
   switch (s) {
-    case AnchorStatus::kTracked: return "tracked";
-    case AnchorStatus::kOutOfView: return "out_of_view";
-    case AnchorStatus::kNoImu: return "no_imu";
-    case AnchorStatus::kLost: return "lost";
+    case AnchorStatus::kTracked:
+      return "tracked";
+    case AnchorStatus::kOutOfView:
+      return "out_of_view";
+    case AnchorStatus::kNoImu:
+      return "no_imu";
+    case AnchorStatus::kLost:
+      return "lost";
   }
   return "lost";
 }
@@ -90,7 +95,8 @@ bool AnchorManager::setRotationCamImu(const Eigen::Quaterniond& q_cam_imu) {
 }
 
 ImuInput AnchorManager::addImu(const ImuSample& s, std::string* why) {
-  if (!imu_.empty() && std::isfinite(s.stamp) && s.stamp < imu_.newestStamp() - options_.imu_reset_seconds) {
+  if (!imu_.empty() && std::isfinite(s.stamp) &&
+      s.stamp < imu_.newestStamp() - options_.imu_reset_seconds) {
     if (why)
       *why = "IMU stamp " + num(s.stamp) + " is " + num(imu_.newestStamp() - s.stamp) +
              " s behind the previous one: IMU orientation restarted";
@@ -140,7 +146,8 @@ bool AnchorManager::add(uint32_t id, double stamp, const cv::Point2d& uv, double
     return false;
   }
   if (!std::isfinite(depth) || depth < 0) {
-    *error = "depth must be positive (0 = the default " + num(options_.default_depth) + " m), got " + num(depth);
+    *error = "depth must be positive (0 = the default " + num(options_.default_depth) +
+             " m), got " + num(depth);
     return false;
   }
   if (!std::isfinite(stamp)) {
@@ -151,8 +158,8 @@ bool AnchorManager::add(uint32_t id, double stamp, const cv::Point2d& uv, double
   if (!regions_->cache().find(stamp, &seq, error)) return false;
   const cv::Size size = regions_->cache().imageSize();
   if (!(uv.x >= 0 && uv.y >= 0 && uv.x <= size.width && uv.y <= size.height)) {
-    *error = "pixel (" + num(uv.x) + ", " + num(uv.y) + ") is outside the " + std::to_string(size.width) + "x" +
-             std::to_string(size.height) + " image";
+    *error = "pixel (" + num(uv.x) + ", " + num(uv.y) + ") is outside the " +
+             std::to_string(size.width) + "x" + std::to_string(size.height) + " image";
     return false;
   }
   if (id == 0) {
@@ -220,8 +227,8 @@ AnchorState AnchorManager::stateOf(Anchor& a, const RegionState& r, double stamp
   const bool imu_ok = a.bound && imu_.R_world_cam(stamp, &R_wc);
   if (!imu_ok) R_wc = a.R_world_cam0;
   const bool estimate = r.status != RegionStatus::kLost && r.box.width > 0;
-  s.T_cam_anchor = anchorPose(s.pixel, estimate ? a.side / r.box.width : 1.0, a.depth, intrinsics(), R_wc,
-                              a.R_world_anchor);
+  s.T_cam_anchor = anchorPose(s.pixel, estimate ? a.side / r.box.width : 1.0, a.depth, intrinsics(),
+                              R_wc, a.R_world_anchor);
   if (!estimate) {
     s.status = AnchorStatus::kLost;
     s.reason = r.reason.empty() ? "its region is lost" : "region lost: " + r.reason;
@@ -232,16 +239,17 @@ AnchorState AnchorManager::stateOf(Anchor& a, const RegionState& r, double stamp
     else if (!a.bound)
       s.reason = "the IMU has not covered the anchor's frame yet";
     else
-      s.reason = "no IMU orientation at stamp " + num(stamp) + " (IMU spans " + num(imu_.oldestStamp()) +
-                 " .. " + num(imu_.newestStamp()) + ")";
+      s.reason = "no IMU orientation at stamp " + num(stamp) + " (IMU spans " +
+                 num(imu_.oldestStamp()) + " .. " + num(imu_.newestStamp()) + ")";
   } else {
-    s.status = r.status == RegionStatus::kOutOfView ? AnchorStatus::kOutOfView : AnchorStatus::kTracked;
+    s.status =
+        r.status == RegionStatus::kOutOfView ? AnchorStatus::kOutOfView : AnchorStatus::kTracked;
   }
   return s;
 }
 
-bool AnchorManager::stateAt(double stamp, const std::vector<uint32_t>& ids, std::vector<AnchorState>* states,
-                            std::string* error) {
+bool AnchorManager::stateAt(double stamp, const std::vector<uint32_t>& ids,
+                            std::vector<AnchorState>* states, std::string* error) {
   std::vector<Anchor*> wanted;
   if (ids.empty()) {
     for (auto& [id, a] : anchors_) wanted.push_back(&a);

@@ -4,8 +4,8 @@
 #include "instant_motion_tracking/ros/markers.h"
 #include "instant_motion_tracking/ros/params.h"
 
-#include <pluginlib/class_list_macros.hpp>
 #include <visualization_msgs/MarkerArray.h>
+#include <pluginlib/class_list_macros.hpp>
 
 namespace imt {
 
@@ -40,7 +40,8 @@ void AnchorNodelet::updateSubscription() {
                       anchors_pub_.getNumSubscribers() > 0 || markers_pub_.getNumSubscribers() > 0;
   ros::NodeHandle& nh = getNodeHandle();
   if (wanted && !motion_sub_) {
-    motion_sub_ = nh.subscribe("motion_data", 10 * config_.ros.queue_size, &AnchorNodelet::motionCb, this);
+    motion_sub_ =
+        nh.subscribe("motion_data", 10 * config_.ros.queue_size, &AnchorNodelet::motionCb, this);
     imu_sub_ = nh.subscribe("imu", 1000, &AnchorNodelet::imuCb, this);  // up to ~1 s at 1 kHz
   } else if (!wanted && motion_sub_) {
     motion_sub_.shutdown();
@@ -64,7 +65,8 @@ void AnchorNodelet::infoCb(const sensor_msgs::CameraInfoConstPtr& msg) {
 }
 
 void AnchorNodelet::lookupRotation(const std::string& imu_frame) {
-  if (imu_frame != imu_frame_) rotation_known_ = anchors_->rotationFromOptions();  // a new IMU frame
+  if (imu_frame != imu_frame_)
+    rotation_known_ = anchors_->rotationFromOptions();  // a new IMU frame
   imu_frame_ = imu_frame;
   if (rotation_known_ || camera_frame_.empty()) return;
   if (imu_frame.empty() || imu_frame == camera_frame_) {
@@ -78,7 +80,8 @@ void AnchorNodelet::lookupRotation(const std::string& imu_frame) {
       const auto& q = t.transform.rotation;
       rotation_known_ = anchors_->setRotationCamImu(Eigen::Quaterniond(q.w, q.x, q.y, q.z));
       if (rotation_known_) {
-        NODELET_INFO("IMU-to-camera rotation from tf: %s <- %s", camera_frame_.c_str(), imu_frame.c_str());
+        NODELET_INFO("IMU-to-camera rotation from tf: %s <- %s", camera_frame_.c_str(),
+                     imu_frame.c_str());
         return;
       }
       why = "not a rotation";
@@ -86,8 +89,9 @@ void AnchorNodelet::lookupRotation(const std::string& imu_frame) {
   } catch (const tf2::TransformException& e) {
     why = e.what();
   }
-  NODELET_WARN_THROTTLE(10.0, "no tf %s <- %s yet (%s); assuming the IMU axes are the camera's until it comes",
-                        camera_frame_.c_str(), imu_frame.c_str(), why.c_str());
+  NODELET_WARN_THROTTLE(
+      10.0, "no tf %s <- %s yet (%s); assuming the IMU axes are the camera's until it comes",
+      camera_frame_.c_str(), imu_frame.c_str(), why.c_str());
 }
 
 void AnchorNodelet::imuCb(const sensor_msgs::ImuConstPtr& msg) {
@@ -101,9 +105,14 @@ void AnchorNodelet::imuCb(const sensor_msgs::ImuConstPtr& msg) {
   imu_seen_ = true;
   lookupRotation(msg->header.frame_id);
   switch (anchors_->addImu(s, &why)) {
-    case ImuInput::kAccepted: break;
-    case ImuInput::kDropped: NODELET_WARN_THROTTLE(5.0, "%s", why.c_str()); break;
-    case ImuInput::kReset: NODELET_WARN("%s", why.c_str()); break;
+    case ImuInput::kAccepted:
+      break;
+    case ImuInput::kDropped:
+      NODELET_WARN_THROTTLE(5.0, "%s", why.c_str());
+      break;
+    case ImuInput::kReset:
+      NODELET_WARN("%s", why.c_str());
+      break;
   }
   flush();
 }
@@ -137,13 +146,15 @@ void AnchorNodelet::publish(const std_msgs::Header& header) {
   std::vector<AnchorState> states;
   std::string error;
   if (!anchors_->stateAt(header.stamp.toSec(), {}, &states, &error)) {
-    NODELET_WARN_THROTTLE(5.0, "no anchors for stamp %.6f: %s", header.stamp.toSec(), error.c_str());
+    NODELET_WARN_THROTTLE(5.0, "no anchors for stamp %.6f: %s", header.stamp.toSec(),
+                          error.c_str());
     return;
   }
   for (const AnchorState& s : states) {
     if (s.status != AnchorStatus::kNoImu) continue;
     const std::string where = imu_seen_ ? "" : " on " + getNodeHandle().resolveName("imu");
-    NODELET_WARN_THROTTLE(10.0, "anchors are translation-only (status no_imu): %s%s", s.reason.c_str(), where.c_str());
+    NODELET_WARN_THROTTLE(10.0, "anchors are translation-only (status no_imu): %s%s",
+                          s.reason.c_str(), where.c_str());
     break;
   }
   if (anchors_pub_.getNumSubscribers() > 0) anchors_pub_.publish(toMsg(states, header));
@@ -159,14 +170,16 @@ bool AnchorNodelet::addCb(instant_motion_tracking::AddAnchor::Request& req,
   std::lock_guard<std::mutex> lock(mutex_);
   std::string error;
   uint32_t id = 0;
-  res.success = anchors_->add(req.id, req.stamp.toSec(), cv::Point2d(req.u, req.v), req.depth, &id, &error);
+  res.success =
+      anchors_->add(req.id, req.stamp.toSec(), cv::Point2d(req.u, req.v), req.depth, &id, &error);
   res.id = res.success ? id : 0;
   res.message = res.success ? "tracking anchor " + std::to_string(id) : error;
   if (!res.success) NODELET_WARN_THROTTLE(1.0, "add_anchor refused: %s", error.c_str());
   // Refused for want of frames: stay subscribed so that a retry finds some.
   awaiting_frames_ = !res.success && regions_->cachedFrames() == 0;
   if (awaiting_frames_)
-    res.message += " (subscribed to " + getNodeHandle().resolveName("motion_data") + "; retry shortly)";
+    res.message +=
+        " (subscribed to " + getNodeHandle().resolveName("motion_data") + "; retry shortly)";
   updateSubscription();
   return true;
 }

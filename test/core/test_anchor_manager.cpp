@@ -268,8 +268,8 @@ void runWalk(WalkFigures* out) {
     anchors.update();
     uint32_t id;
     if (i == 0) {
-      ASSERT_TRUE(anchors.add(1, 0, f0.anchors[0].pixel, f0.anchors[0].T_cam_anchor.translation().norm(), &id,
-                              &err))
+      ASSERT_TRUE(anchors.add(1, 0, f0.anchors[0].pixel,
+                              f0.anchors[0].T_cam_anchor.translation().norm(), &id, &err))
           << err;
     }
     if (i == 45) {
@@ -302,7 +302,8 @@ void runWalk(WalkFigures* out) {
           was_out = true;
           // Well outside the image (by the region's size): the status must say so.
           const double margin = 0.2 * 480;
-          if (a.pixel.x < -margin || a.pixel.x > 640 + margin || a.pixel.y < -margin || a.pixel.y > 480 + margin) {
+          if (a.pixel.x < -margin || a.pixel.x > 640 + margin || a.pixel.y < -margin ||
+              a.pixel.y > 480 + margin) {
             ++out->out_frames;
             out->out_status += s.status == AnchorStatus::kOutOfView;
           }
@@ -312,15 +313,19 @@ void runWalk(WalkFigures* out) {
         if (was_out && returned_at < 0) returned_at = truth.stamp;
         if (returned_at >= 0 && truth.stamp - returned_at <= 1.0) out->px_after_return.push_back(e);
         out->rot.push_back(angleDeg(s.T_cam_anchor.linear(), a.T_cam_anchor.linear()));
-        out->range.push_back(std::abs(s.T_cam_anchor.translation().norm() / a.T_cam_anchor.translation().norm() - 1));
+        out->range.push_back(std::abs(
+            s.T_cam_anchor.translation().norm() / a.T_cam_anchor.translation().norm() - 1));
       }
     }
   }
-  std::printf("floor_walk AnchorManager: pixel median %.2f px in view, %.2f px first second back; orientation "
-              "median %.3f deg (anchor placed in the past: %.3f deg); range median %.1f%%; out_of_view status on "
-              "%d of %d frames far outside\n",
-              median(out->px_in_view), median(out->px_after_return), median(out->rot), median(out->rot_late),
-              100 * median(out->range), out->out_status, out->out_frames);
+  std::printf(
+      "floor_walk AnchorManager: pixel median %.2f px in view, %.2f px first second back; "
+      "orientation "
+      "median %.3f deg (anchor placed in the past: %.3f deg); range median %.1f%%; out_of_view "
+      "status on "
+      "%d of %d frames far outside\n",
+      median(out->px_in_view), median(out->px_after_return), median(out->rot),
+      median(out->rot_late), 100 * median(out->range), out->out_status, out->out_frames);
 }
 
 // The bars: pixel median <= 3 px in view, <= 15 px over the first
@@ -330,8 +335,10 @@ TEST(AnchorManager, FloorWalkAgainstGroundTruth) {
   WalkFigures f;
   runWalk(&f);
   const int frames = 360;
-  EXPECT_GE(f.statuses, frames + (frames - 45) - 3) << "frames left waiting at the end are the only ones missing";
-  ASSERT_FALSE(f.px_after_return.empty()) << "the scene should take the anchor out of view and back";
+  EXPECT_GE(f.statuses, frames + (frames - 45) - 3)
+      << "frames left waiting at the end are the only ones missing";
+  ASSERT_FALSE(f.px_after_return.empty())
+      << "the scene should take the anchor out of view and back";
   EXPECT_LE(median(f.px_in_view), 3.0);
   EXPECT_LE(median(f.px_after_return), 15.0);
   EXPECT_LE(median(f.rot), 1.0);

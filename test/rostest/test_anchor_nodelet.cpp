@@ -12,14 +12,14 @@
 
 #include "rostest_util.h"
 
-#include <Eigen/Geometry>
 #include <gtest/gtest.h>
-#include <nlohmann/json.hpp>
 #include <ros/ros.h>
 #include <rosgraph_msgs/Log.h>
 #include <sensor_msgs/Imu.h>
 #include <tf2_ros/buffer.h>
 #include <tf2_ros/transform_listener.h>
+#include <Eigen/Geometry>
+#include <nlohmann/json.hpp>
 
 #include <algorithm>
 #include <cmath>
@@ -40,8 +40,12 @@ double median(std::vector<double> v) {
   return v[v.size() / 2];
 }
 
-Eigen::Quaterniond quat(const nlohmann::json& q) { return Eigen::Quaterniond(q[3], q[0], q[1], q[2]); }
-Eigen::Quaterniond quat(const geometry_msgs::Quaternion& q) { return Eigen::Quaterniond(q.w, q.x, q.y, q.z); }
+Eigen::Quaterniond quat(const nlohmann::json& q) {
+  return Eigen::Quaterniond(q[3], q[0], q[1], q[2]);
+}
+Eigen::Quaterniond quat(const geometry_msgs::Quaternion& q) {
+  return Eigen::Quaterniond(q.w, q.x, q.y, q.z);
+}
 
 double angleDeg(const Eigen::Matrix3d& a, const Eigen::Matrix3d& b) {
   return Eigen::AngleAxisd(a.transpose() * b).angle() * 180 / M_PI;
@@ -63,7 +67,8 @@ TEST(AnchorNodelet, AddedThroughTheServiceMatchesGroundTruthOnTopicAndTf) {
   ASSERT_FALSE(dir.empty());
   const std::string bag = dir + "/floor_walk.bag", truth_path = dir + "/truth.json";
   // 8 s: the anchor leaves the view at 4.2 s and is back at 6.3 s.
-  const std::string cmd = std::string(IMT_BIN_DIR) + "/make_scene --preset floor_walk --duration 8 --seed 3 --quiet --out " +
+  const std::string cmd = std::string(IMT_BIN_DIR) +
+                          "/make_scene --preset floor_walk --duration 8 --seed 3 --quiet --out " +
                           bag + " --truth " + truth_path + " > " + dir + "/make_scene.log 2>&1";
   ASSERT_EQ(std::system(cmd.c_str()), 0) << cmd;
   nlohmann::json truth;
@@ -72,7 +77,9 @@ TEST(AnchorNodelet, AddedThroughTheServiceMatchesGroundTruthOnTopicAndTf) {
   ASSERT_EQ(n, 240u);
   const std::string frame_id = truth["frame_id"];
   auto stampOf = [&](size_t k) { return ros::Time(truth["frames"][k]["stamp"].get<double>()); };
-  auto R_world_cam = [&](size_t k) { return quat(truth["frames"][k]["T_world_cam"]["q"]).toRotationMatrix(); };
+  auto R_world_cam = [&](size_t k) {
+    return quat(truth["frames"][k]["T_world_cam"]["q"]).toRotationMatrix();
+  };
   std::map<ros::Time, size_t> frame_of;
   for (size_t k = 0; k < n; ++k) frame_of[stampOf(k)] = k;
 
@@ -80,9 +87,11 @@ TEST(AnchorNodelet, AddedThroughTheServiceMatchesGroundTruthOnTopicAndTf) {
   tf2_ros::Buffer tf_buffer(ros::Duration(60));
   tf2_ros::TransformListener tf_listener(tf_buffer);
   std::vector<std::string> warnings;  // of the anchor tracker, from /rosout
-  ros::Subscriber log_sub = nh.subscribe<rosgraph_msgs::Log>("/rosout", 1000, [&](const rosgraph_msgs::LogConstPtr& m) {
-    if (m->level >= rosgraph_msgs::Log::WARN && m->name.find("manager") != std::string::npos) warnings.push_back(m->msg);
-  });
+  ros::Subscriber log_sub =
+      nh.subscribe<rosgraph_msgs::Log>("/rosout", 1000, [&](const rosgraph_msgs::LogConstPtr& m) {
+        if (m->level >= rosgraph_msgs::Log::WARN && m->name.find("manager") != std::string::npos)
+          warnings.push_back(m->msg);
+      });
   ros::Publisher imu_pub = nh.advertise<sensor_msgs::Imu>("/imu/data", 10);
   ASSERT_TRUE(ros::service::waitForService("add_anchor", ros::Duration(60)));
 
@@ -92,18 +101,20 @@ TEST(AnchorNodelet, AddedThroughTheServiceMatchesGroundTruthOnTopicAndTf) {
   AddAnchor early = request(ros::Time(0), 0, 100, 100, 0);
   ASSERT_TRUE(ros::service::call("add_anchor", early));
   EXPECT_FALSE(early.response.success);
-  EXPECT_NE(early.response.message.find("retry shortly"), std::string::npos) << early.response.message;
+  EXPECT_NE(early.response.message.find("retry shortly"), std::string::npos)
+      << early.response.message;
   EXPECT_TRUE(imt::test::spinUntil([&] { return imu_pub.getNumSubscribers() > 0; }, 10.0))
       << "the refused add_anchor should have subscribed the nodelet to imu";
   std::vector<AnchorArray> received;
-  ros::Subscriber sub = nh.subscribe<AnchorArray>("anchors", 1000, [&](const instant_motion_tracking::AnchorArrayConstPtr& m) {
-    received.push_back(*m);
-  });
+  ros::Subscriber sub = nh.subscribe<AnchorArray>(
+      "anchors", 1000,
+      [&](const instant_motion_tracking::AnchorArrayConstPtr& m) { received.push_back(*m); });
 
-  const pid_t player =
-      imt::test::playTopics(bag, {"/camera/image_raw", "/camera/camera_info", "/imu/data", "/tf_static"});
+  const pid_t player = imt::test::playTopics(
+      bag, {"/camera/image_raw", "/camera/camera_info", "/imu/data", "/tf_static"});
   ASSERT_GT(player, 0);
-  ASSERT_TRUE(imt::test::spinUntil([&] { return received.size() >= 20; }, 60.0)) << received.size() << " frames";
+  ASSERT_TRUE(imt::test::spinUntil([&] { return received.size() >= 20; }, 60.0))
+      << received.size() << " frames";
 
   // The anchor, given at the first frame the nodelet saw (in the past by
   // now): the scene anchor's pixel there and its distance as the depth.
@@ -111,7 +122,8 @@ TEST(AnchorNodelet, AddedThroughTheServiceMatchesGroundTruthOnTopicAndTf) {
   const size_t k0 = frame_of[received.front().header.stamp];
   const nlohmann::json& a0 = truth["frames"][k0]["anchors"][0];
   const Eigen::Vector3d t0(a0["t"][0], a0["t"][1], a0["t"][2]);
-  AddAnchor add = request(stampOf(k0), 1, a0["pixel"][0].get<double>(), a0["pixel"][1].get<double>(), t0.norm());
+  AddAnchor add = request(stampOf(k0), 1, a0["pixel"][0].get<double>(),
+                          a0["pixel"][1].get<double>(), t0.norm());
   ASSERT_TRUE(ros::service::call("add_anchor", add));
   ASSERT_TRUE(add.response.success) << add.response.message;
   EXPECT_EQ(add.response.id, 1u);
@@ -159,7 +171,8 @@ TEST(AnchorNodelet, AddedThroughTheServiceMatchesGroundTruthOnTopicAndTf) {
   imu_pub.publish(bad_imu);
   bad_imu.angular_velocity.x = 0;
   bad_imu.linear_acceleration.z = 9.81;
-  bad_imu.header.stamp -= ros::Duration(0.5);  // behind the stream, but less than anchors/imu_reset_seconds
+  // Behind the stream, but by less than anchors/imu_reset_seconds.
+  bad_imu.header.stamp -= ros::Duration(0.5);
   imu_pub.publish(bad_imu);
 
   // Play to the end.
@@ -180,7 +193,8 @@ TEST(AnchorNodelet, AddedThroughTheServiceMatchesGroundTruthOnTopicAndTf) {
     if (!frame_of.count(m.header.stamp)) continue;
     const size_t k = frame_of[m.header.stamp];
     EXPECT_EQ(m.header.frame_id, frame_id);
-    const auto it = std::find_if(m.anchors.begin(), m.anchors.end(), [](const auto& a) { return a.id == 1; });
+    const auto it =
+        std::find_if(m.anchors.begin(), m.anchors.end(), [](const auto& a) { return a.id == 1; });
     if (it == m.anchors.end()) continue;
     const instant_motion_tracking::Anchor& a = *it;
     ASSERT_NE(a.status, "lost") << "frame " << k;
@@ -189,8 +203,10 @@ TEST(AnchorNodelet, AddedThroughTheServiceMatchesGroundTruthOnTopicAndTf) {
     const cv::Point2d pixel(t["pixel"][0], t["pixel"][1]);
     if (!t["in_view"].get<bool>()) {
       was_out = true;
-      const double margin = 0.2 * 480;  // the anchor's region size: well outside the image beyond it
-      if (pixel.x < -margin || pixel.x > 640 + margin || pixel.y < -margin || pixel.y > 480 + margin) {
+      // The anchor's region size: well outside the image beyond it.
+      const double margin = 0.2 * 480;
+      if (pixel.x < -margin || pixel.x > 640 + margin || pixel.y < -margin ||
+          pixel.y > 480 + margin) {
         ++far_out;
         out_of_view += a.status == "out_of_view";
       }
@@ -203,7 +219,8 @@ TEST(AnchorNodelet, AddedThroughTheServiceMatchesGroundTruthOnTopicAndTf) {
     const Eigen::Matrix3d R_expected = R_world_cam(k).transpose() * R_world_anchor;
     rot.push_back(angleDeg(quat(a.pose.orientation).toRotationMatrix(), R_expected));
     const Eigen::Vector3d p(a.pose.position.x, a.pose.position.y, a.pose.position.z);
-    range.push_back(std::abs(p.norm() / Eigen::Vector3d(t["t"][0], t["t"][1], t["t"][2]).norm() - 1));
+    range.push_back(
+        std::abs(p.norm() / Eigen::Vector3d(t["t"][0], t["t"][1], t["t"][2]).norm() - 1));
     // tf2: the same pose as the message, at the image stamp, child of the image frame.
     if (k % 10 == 0) {
       geometry_msgs::TransformStamped tf;
@@ -215,15 +232,19 @@ TEST(AnchorNodelet, AddedThroughTheServiceMatchesGroundTruthOnTopicAndTf) {
       }
       EXPECT_NEAR(tf.transform.translation.x, a.pose.position.x, 1e-6) << "frame " << k;
       EXPECT_NEAR(tf.transform.translation.z, a.pose.position.z, 1e-6) << "frame " << k;
-      EXPECT_LT(angleDeg(quat(tf.transform.rotation).toRotationMatrix(), R_expected), 1.0) << "frame " << k;
+      EXPECT_LT(angleDeg(quat(tf.transform.rotation).toRotationMatrix(), R_expected), 1.0)
+          << "frame " << k;
       ++scored_tf;
     }
   }
-  std::printf("AnchorNodelet on floor_walk: %zu frames in view, pixel median %.2f px, first second back %.2f px "
-              "(%zu frames), orientation median %.3f deg, range median %.1f%%; out_of_view on %d of %d frames far "
-              "outside; %d tf lookups\n",
-              px.size(), median(px), median(px_back), px_back.size(), median(rot), 100 * median(range), out_of_view,
-              far_out, scored_tf);
+  std::printf(
+      "AnchorNodelet on floor_walk: %zu frames in view, pixel median %.2f px, first second back "
+      "%.2f px "
+      "(%zu frames), orientation median %.3f deg, range median %.1f%%; out_of_view on %d of %d "
+      "frames far "
+      "outside; %d tf lookups\n",
+      px.size(), median(px), median(px_back), px_back.size(), median(rot), 100 * median(range),
+      out_of_view, far_out, scored_tf);
   // The bars: pixel median <= 3 px in view, <= 15 px over the first
   // second back in view, orientation median <= 1 degree.
   ASSERT_GT(px.size(), 100u);
@@ -239,9 +260,11 @@ TEST(AnchorNodelet, AddedThroughTheServiceMatchesGroundTruthOnTopicAndTf) {
   EXPECT_EQ(out_of_view, far_out);
   EXPECT_GT(scored_tf, 10);
   auto warned = [&](const std::string& what) {
-    return std::any_of(warnings.begin(), warnings.end(), [&](const std::string& w) { return w.find(what) != std::string::npos; });
+    return std::any_of(warnings.begin(), warnings.end(),
+                       [&](const std::string& w) { return w.find(what) != std::string::npos; });
   };
-  EXPECT_TRUE(warned("dropping IMU sample: IMU sample with NaN/Inf")) << warnings.size() << " warnings";
+  EXPECT_TRUE(warned("dropping IMU sample: IMU sample with NaN/Inf"))
+      << warnings.size() << " warnings";
   EXPECT_TRUE(warned("is not after the previous one")) << warnings.size() << " warnings";
   std::system(("rm -rf " + dir).c_str());
 }

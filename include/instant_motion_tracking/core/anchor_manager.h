@@ -27,7 +27,8 @@
 //   anchors.setRotationCamImu(q_cam_imu_from_tf);   // ignored when anchors.rotation_cam_imu is set
 //   on IMU:   if (anchors.addImu(sample, &why) == ImuInput::kDropped) warn(why);
 //   on frame: regions.update(md); anchors.update();
-//             while (anchors.ready(pending_stamp)) publish(anchors.stateAt(pending_stamp, {}, &states, &err));
+//             while (anchors.ready(oldest_pending))
+//               { anchors.stateAt(oldest_pending, {}, &states, &err); publish(states); pop; }
 //   anchors.add(0, stamp, {u, v}, depth, &id, &error);   // stamp 0 = the latest frame
 // Threading: not thread-safe; callers serialise (the nodelet holds a mutex).
 #pragma once
@@ -48,11 +49,15 @@ namespace imt {
 
 // config/default.yaml: section `anchors:`.
 struct AnchorOptions {
-  double region_size = 0.2;       // side of the square region tracked around the tap, fraction of the shorter image side
-  double default_depth = 1.0;     // m; distance along the tap's ray when a request gives 0
-  double imu_wait_seconds = 0.1;  // s of frames a frame's anchors wait for the IMU to pass its stamp (live)
-  double imu_reset_seconds = 1.0; // s; an IMU stamp this far behind the newest resets the orientation (bag loop)
-  std::string rotation_cam_imu;   // "qx qy qz qw": the IMU frame in the camera optical frame, overriding tf; "" = tf
+  // side of the square region tracked around the tap, fraction of the shorter image side
+  double region_size = 0.2;
+  double default_depth = 1.0;  // m; distance along the tap's ray when a request gives 0
+  // s of frames a frame's anchors wait for the IMU to pass its stamp (live)
+  double imu_wait_seconds = 0.1;
+  // s; an IMU stamp this far behind the newest resets the orientation (bag loop)
+  double imu_reset_seconds = 1.0;
+  // "qx qy qz qw": the IMU frame in the camera optical frame, overriding tf; "" = from tf
+  std::string rotation_cam_imu;
 
   template <class V>
   void visit(V& v) {
@@ -80,8 +85,10 @@ const char* anchorStatusName(AnchorStatus s);
 struct AnchorState {
   uint32_t id = 0;
   double stamp = 0;
-  cv::Point2d pixel;  // projection of the anchor point (predicted when out of view); meaningless when lost
-  Eigen::Isometry3d T_cam_anchor = Eigen::Isometry3d::Identity();  // anchor frame in the camera optical frame
+  // Projection of the anchor point (predicted when out of view); meaningless when lost.
+  cv::Point2d pixel;
+  // The anchor frame in the camera optical frame.
+  Eigen::Isometry3d T_cam_anchor = Eigen::Isometry3d::Identity();
   AnchorStatus status = AnchorStatus::kTracked;
   double confidence = 0;  // 0 .. 1 (the region's; 0 when lost)
   std::string reason;     // why no_imu or lost (empty otherwise)
@@ -99,8 +106,8 @@ class AnchorManager {
 
   // `regions` must outlive the manager. Invalid options (validate() not
   // empty) are replaced by the defaults; check them beforehand.
-  AnchorManager(const AnchorOptions& options, const ImuOptions& imu_options, double default_hfov_deg,
-                RegionManager* regions);
+  AnchorManager(const AnchorOptions& options, const ImuOptions& imu_options,
+                double default_hfov_deg, RegionManager* regions);
 
   // Intrinsics of the image (camera_info); used while their size matches the
   // frames, else a pinhole with default_hfov_deg.
@@ -149,12 +156,13 @@ class AnchorManager {
  private:
   struct Anchor {
     uint32_t id = 0, region_id = 0;
-    double stamp = 0;      // placement frame
-    double depth = 1.0;    // m along the tap's ray at placement
-    double side = 0;       // px, initial region side
-    bool bound = false;    // R_world_anchor known from the IMU
+    double stamp = 0;    // placement frame
+    double depth = 1.0;  // m along the tap's ray at placement
+    double side = 0;     // px, initial region side
+    bool bound = false;  // R_world_anchor known from the IMU
     Eigen::Matrix3d R_world_anchor = Eigen::Matrix3d::Identity();
-    Eigen::Matrix3d R_world_cam0 = Eigen::Matrix3d::Identity();  // at binding (or the image-up stand-in)
+    // The camera at binding (or the image-up stand-in).
+    Eigen::Matrix3d R_world_cam0 = Eigen::Matrix3d::Identity();
   };
   void unbind(Anchor& a) const;
   void tryBind(Anchor& a, double stamp);

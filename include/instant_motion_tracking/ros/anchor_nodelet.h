@@ -24,9 +24,9 @@
 //   frame_prefix, queue_size, always_subscribe.
 // motion_data and imu are subscribed while an output has a subscriber, an
 // anchor exists, add_anchor was just refused for want of frames, or
-// ~always_subscribe is set (unsubscribing forgets the frames and the IMU). Without IMU the anchors are
-// translation-only (status no_imu, throttled warning). Motion data going back
-// in time clears the anchors. Bad requests get success=false and a message.
+// ~always_subscribe is set (unsubscribing forgets the frames and the IMU). Without IMU the anchors
+// are translation-only (status no_imu, throttled warning). Motion data going back in time clears
+// the anchors. Bad requests get success=false and a message.
 #pragma once
 
 #include "instant_motion_tracking/AddAnchor.h"
@@ -58,7 +58,8 @@ class AnchorNodelet : public nodelet::Nodelet {
   void motionCb(const instant_motion_tracking::MotionDataConstPtr& msg);
   void infoCb(const sensor_msgs::CameraInfoConstPtr& msg);
   void imuCb(const sensor_msgs::ImuConstPtr& msg);
-  bool addCb(instant_motion_tracking::AddAnchor::Request& req, instant_motion_tracking::AddAnchor::Response& res);
+  bool addCb(instant_motion_tracking::AddAnchor::Request& req,
+             instant_motion_tracking::AddAnchor::Response& res);
   bool removeCb(instant_motion_tracking::RemoveRegion::Request& req,
                 instant_motion_tracking::RemoveRegion::Response& res);
   void lookupRotation(const std::string& imu_frame);  // R_cam_imu from tf2, once found

@@ -89,7 +89,8 @@ std::string PipelineOptions::validate() const {
   e = motion_analysis.validate();
   if (e.empty()) e = region_tracking.validate();
   if (e.empty()) e = planar_tracking.validate();
-  return e.empty() ? imu.validate() : e;
+  if (e.empty()) e = imu.validate();
+  return e.empty() ? anchors.validate() : e;
 }
 
 }  // namespace imt

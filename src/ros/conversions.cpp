@@ -235,4 +235,46 @@ std::vector<geometry_msgs::TransformStamped> planarTargetTransforms(
   return out;
 }
 
+instant_motion_tracking::Anchor toMsg(const AnchorState& s) {
+  instant_motion_tracking::Anchor m;
+  m.id = s.id;
+  const bool est = s.hasEstimate();
+  m.u = est ? s.pixel.x : NAN;
+  m.v = est ? s.pixel.y : NAN;
+  m.pose = toPoseMsg(s.T_cam_anchor);
+  if (!est) {
+    m.pose.position.x = m.pose.position.y = m.pose.position.z = NAN;
+    m.pose.orientation.x = m.pose.orientation.y = m.pose.orientation.z = m.pose.orientation.w = NAN;
+  }
+  m.status = anchorStatusName(s.status);
+  m.confidence = s.confidence;
+  return m;
+}
+
+instant_motion_tracking::AnchorArray toMsg(const std::vector<AnchorState>& states, const std_msgs::Header& header) {
+  instant_motion_tracking::AnchorArray a;
+  a.header = header;
+  for (const AnchorState& s : states) a.anchors.push_back(toMsg(s));
+  return a;
+}
+
+std::vector<geometry_msgs::TransformStamped> anchorTransforms(const std::vector<AnchorState>& states,
+                                                              const std_msgs::Header& header,
+                                                              const std::string& frame_prefix) {
+  std::vector<geometry_msgs::TransformStamped> out;
+  for (const AnchorState& s : states) {
+    if (!s.hasEstimate()) continue;
+    geometry_msgs::TransformStamped t;
+    t.header = header;
+    t.child_frame_id = frame_prefix + "anchor_" + std::to_string(s.id);
+    const geometry_msgs::Pose p = toPoseMsg(s.T_cam_anchor);
+    t.transform.translation.x = p.position.x;
+    t.transform.translation.y = p.position.y;
+    t.transform.translation.z = p.position.z;
+    t.transform.rotation = p.orientation;
+    out.push_back(t);
+  }
+  return out;
+}
+
 }  // namespace imt

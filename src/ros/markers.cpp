@@ -89,4 +89,51 @@ visualization_msgs::MarkerArray planarTargetMarkers(const std::vector<PlanarTarg
   return out;
 }
 
+visualization_msgs::MarkerArray anchorMarkers(const std::vector<AnchorState>& states,
+                                              const std_msgs::Header& header, double axis_m) {
+  visualization_msgs::MarkerArray out;
+  for (const AnchorState& s : states) {
+    if (!s.hasEstimate()) continue;
+    visualization_msgs::Marker axes;
+    axes.header = header;
+    axes.ns = "anchors";
+    axes.id = static_cast<int>(s.id);
+    axes.type = visualization_msgs::Marker::LINE_LIST;
+    axes.action = visualization_msgs::Marker::ADD;
+    axes.pose.orientation.w = 1.0;
+    axes.scale.x = 0.1 * axis_m;  // line width: a tenth of the axis length
+    axes.lifetime = ros::Duration(0.5);
+    const Eigen::Vector3d o = s.T_cam_anchor.translation();
+    for (int k = 0; k < 3; ++k) {
+      const Eigen::Vector3d tip = o + axis_m * s.T_cam_anchor.linear().col(k);
+      std_msgs::ColorRGBA c;
+      c.a = 1.0;
+      (k == 0 ? c.r : k == 1 ? c.g : c.b) = 1.0;
+      for (const Eigen::Vector3d& p : {o, tip}) {
+        geometry_msgs::Point q;
+        q.x = p.x();
+        q.y = p.y();
+        q.z = p.z();
+        axes.points.push_back(q);
+        axes.colors.push_back(c);
+      }
+    }
+    axes.color.a = 1.0;
+    out.markers.push_back(axes);
+    visualization_msgs::Marker text = axes;
+    text.ns = "anchor_labels";
+    text.type = visualization_msgs::Marker::TEXT_VIEW_FACING;
+    text.points.clear();
+    text.colors.clear();
+    text.pose.position.x = o.x();
+    text.pose.position.y = o.y() - 0.3 * axis_m;  // above the origin (optical y points down)
+    text.pose.position.z = o.z();
+    text.scale.z = 0.3 * axis_m;
+    text.color.r = text.color.g = text.color.b = 1.0;
+    text.text = std::to_string(s.id) + " " + anchorStatusName(s.status);
+    out.markers.push_back(text);
+  }
+  return out;
+}
+
 }  // namespace imt

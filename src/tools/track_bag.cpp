@@ -6,8 +6,7 @@
 //
 // On any bad input it exits non-zero with one line on stderr; warnings and
 // notes of a successful run are printed once each, after the run.
-#include "instant_motion_tracking/core/anchor.h"
-#include "instant_motion_tracking/core/imu_orientation.h"
+#include "instant_motion_tracking/core/anchor_manager.h"
 #include "instant_motion_tracking/core/pipeline.h"
 #include "instant_motion_tracking/io/config.h"
 #include "instant_motion_tracking/io/csv_writer.h"
@@ -59,7 +58,7 @@ options:
   --config FILE             parameter file (default: config/default.yaml of the
                             package, the file the nodelets load)
   --out-bag FILE            also write every output message to this bag
-                            (/motion_data, ...)
+                            (/motion_data, /regions, /planar_targets, /anchors, /tf)
   --start S, --end E        process only the part from S to E seconds after
                             the bag's first message (bag time, as rosbag play -s)
   --quiet                   no progress bar
@@ -380,11 +379,14 @@ class TrackBagRun {
       notes_.note(why + "; intrinsics from default_hfov_deg " + hfov() + " deg");
     }
 
-    // IMU -> camera rotation from tf, kept for the IMU-aided trackers.
+    // IMU -> camera rotation from tf (or the anchors.rotation_cam_imu
+    // parameter, which overrides it), kept for the IMU-aided trackers.
     if (!input_.imuTopic().empty()) {
       imu_frame_ = input_.imuFrameId();
       Eigen::Quaterniond q;
-      if (input_.lookupRotation(input_.imageFrameId(), imu_frame_, &q, &tf_why_)) q_cam_imu_ = q;
+      if (config_.pipeline.anchors.rotationCamImu(&q) ||
+          input_.lookupRotation(input_.imageFrameId(), imu_frame_, &q, &tf_why_))
+        q_cam_imu_ = q;
     }
     stage_seconds_["open"] = clock.lap();
   }
@@ -524,27 +526,29 @@ class TrackBagRun {
     intrinsics_source_ = "field_of_view";
   }
 
-  static constexpr uint32_t kAnchorRegionBase = 1000000000u;
-  struct AnchorTrack {
-    uint32_t id, region_id;
-    double stamp, depth, side;
-    bool has_imu = false;
-    Eigen::Matrix3d R_world_anchor = Eigen::Matrix3d::Identity(), R_world_cam0 = Eigen::Matrix3d::Identity();
-  };
-
-  // The bag's IMU stream integrated over the whole run (offline: the window
-  // spans the bag, up to an hour), rotated into the camera by /tf_static.
-  std::unique_ptr<imt::ImuOrientation> anchorImu() {
+  // The anchors over the pipeline's regions, with the bag's IMU stream
+  // integrated over the whole run (offline: the window spans the bag, up to
+  // an hour), rotated into the camera by /tf_static (or the parameter).
+  std::unique_ptr<imt::AnchorManager> anchorManager() {
     const auto& samples = pipeline_->imuSamples();
-    if (samples.size() < 2) return nullptr;
     imt::ImuOptions o = config_.pipeline.imu;
-    o.window_seconds = std::min(3600.0, std::max(o.window_seconds, samples.back().stamp - samples.front().stamp + 1.0));
-    auto imu = std::make_unique<imt::ImuOrientation>(o);
-    if (q_cam_imu_) imu->setRotationCamImu(*q_cam_imu_);
-    size_t dropped = 0;
-    for (const imt::ImuSample& s : samples) dropped += !imu->add(s);
+    if (!samples.empty())
+      o.window_seconds = std::min(3600.0, std::max(o.window_seconds, samples.back().stamp - samples.front().stamp + 1.0));
+    auto anchors = std::make_unique<imt::AnchorManager>(config_.pipeline.anchors, o, config_.pipeline.default_hfov_deg,
+                                                        &pipeline_->regions());
+    anchors->setIntrinsics(k_info_);
+    if (q_cam_imu_) anchors->setRotationCamImu(*q_cam_imu_);
+    if (samples.size() < 2) return anchors;
+    size_t dropped = 0, restarts = 0;
+    for (const imt::ImuSample& s : samples) {
+      const imt::ImuInput r = anchors->addImu(s);
+      dropped += r == imt::ImuInput::kDropped;
+      restarts += r == imt::ImuInput::kReset;
+    }
     if (dropped) notes_.warn("the IMU orientation dropped " + std::to_string(dropped) + " sample(s) (NaN or out of order)");
-    return imu->empty() ? nullptr : std::move(imu);
+    if (restarts)
+      notes_.warn("the IMU orientation restarted " + std::to_string(restarts) + " time(s) (IMU time jumped back)");
+    return anchors;
   }
 
   // Regions and planar targets of INIT.yaml, each given at its frame and
@@ -572,30 +576,17 @@ class TrackBagRun {
         fail(args_.init + ": planar_targets (id " + std::to_string(t.id) + "): " + err);
       target_ids.push_back(id);
     }
-    // Anchors: a region around the tapped pixel (ids above kAnchorRegionBase
-    // so they never meet INIT regions) + the IMU orientation.
-    const imt::CameraIntrinsics K = pipeline_->intrinsics();
-    const double side = 0.2 * std::min(K.width, K.height);
-    std::vector<AnchorTrack> anchors;
+    // Anchors: a region around the tapped pixel + the IMU orientation.
+    std::unique_ptr<imt::AnchorManager> anchors;
+    std::vector<uint32_t> anchor_ids;
+    if (!init_.anchors.empty()) anchors = anchorManager();
     for (const imt::AnchorInit& a : init_.anchors) {
       uint32_t id;
-      const cv::Rect2d box(a.point[0] - side / 2, a.point[1] - side / 2, side, side);
-      if (!pipeline_->regions().add(kAnchorRegionBase + a.id, a.stamp, box, &id, &err))
+      if (!anchors->add(a.id, a.stamp, cv::Point2d(a.point[0], a.point[1]), a.depth, &id, &err))
         fail(args_.init + ": anchors (id " + std::to_string(a.id) + "): " + err);
-      anchors.push_back({a.id, id, a.stamp, a.depth, side});
+      anchor_ids.push_back(id);
     }
-    std::unique_ptr<imt::ImuOrientation> imu;
-    if (!anchors.empty()) imu = anchorImu();
-    for (AnchorTrack& a : anchors) {
-      Eigen::Matrix3d R_wc0 = Eigen::Matrix3d::Identity();
-      a.has_imu = imu && imu->R_world_cam(a.stamp, &R_wc0);
-      // Without the IMU: "up" is the image's up at placement, and the anchor
-      // keeps that orientation relative to the camera (status no_imu).
-      if (!a.has_imu) R_wc0 = (Eigen::Matrix3d() << 1, 0, 0, 0, 0, 1, 0, -1, 0).finished();
-      a.R_world_anchor = imt::anchorOrientation(R_wc0);
-      a.R_world_cam0 = R_wc0;
-    }
-    if (!anchors.empty() && !imu)
+    if (anchors && anchors->imu().empty())
       notes_.warn("no usable IMU in the bag: anchors are translation-only (status no_imu)");
 
     size_t missing = 0;
@@ -616,38 +607,31 @@ class TrackBagRun {
         if (!targets_csv_.write(imt::planarTargetRow(st), &err)) fail(err);
         targets.push_back(st);
       }
-      for (const AnchorTrack& a : anchors) {
-        std::vector<imt::RegionState> st;
-        if (!pipeline_->regions().seek(f.stamp, {a.region_id}, &st, &err)) fail(err);
-        const imt::RegionState& r = st[0];
-        Eigen::Matrix3d R_wc = a.R_world_cam0;
-        const bool imu_ok = a.has_imu && imu->R_world_cam(f.stamp, &R_wc);
-        const bool estimate = r.status != imt::RegionStatus::kLost;
-        const cv::Point2d uv(r.box.x + r.box.width / 2, r.box.y + r.box.height / 2);
-        const Eigen::Isometry3d T =
-            imt::anchorPose(uv, estimate ? a.side / r.box.width : 1.0, a.depth, K, R_wc, a.R_world_anchor);
-        std::string status = r.status == imt::RegionStatus::kOutOfView ? "out_of_view"
-                             : r.status == imt::RegionStatus::kLost    ? "lost"
-                                                                       : "tracked";
-        if (estimate && !imu_ok) status = "no_imu";
-        if (!anchors_csv_.write(imt::anchorRow(f.stamp, a.id, uv, T, status, estimate), &err)) fail(err);
-      }
+      std::vector<imt::AnchorState> anchor_states;
+      if (!anchor_ids.empty() && !anchors->stateAt(f.stamp, anchor_ids, &anchor_states, &err)) fail(err);
+      for (const imt::AnchorState& a : anchor_states)
+        if (!anchors_csv_.write(imt::anchorRow(f.stamp, a.id, a.pixel, a.T_cam_anchor, imt::anchorStatusName(a.status),
+                                               a.hasEstimate()),
+                                &err))
+          fail(err);
       if (out_bag_) {
         try {
           if (!region_ids.empty()) out_bag_->write("/regions", f.bag_time, imt::toMsg(regions, f.header));
-          if (!target_ids.empty()) {
-            out_bag_->write("/planar_targets", f.bag_time, imt::toMsg(targets, f.header));
-            tf2_msgs::TFMessage tf;
-            tf.transforms = imt::planarTargetTransforms(targets, f.header, config_.ros.frame_prefix);
-            if (!tf.transforms.empty()) out_bag_->write("/tf", f.bag_time, tf);
-          }
+          if (!target_ids.empty()) out_bag_->write("/planar_targets", f.bag_time, imt::toMsg(targets, f.header));
+          if (!anchor_ids.empty()) out_bag_->write("/anchors", f.bag_time, imt::toMsg(anchor_states, f.header));
+          // One /tf message per frame: planar_target_<id> and anchor_<id>.
+          tf2_msgs::TFMessage tf;
+          tf.transforms = imt::planarTargetTransforms(targets, f.header, config_.ros.frame_prefix);
+          for (auto& t : imt::anchorTransforms(anchor_states, f.header, config_.ros.frame_prefix))
+            tf.transforms.push_back(t);
+          if (!tf.transforms.empty()) out_bag_->write("/tf", f.bag_time, tf);
         } catch (const std::exception& e) {
           fail("cannot write --out-bag '" + args_.out_bag + "': " + e.what());
         }
       }
     }
     if (missing)
-      notes_.warn(std::to_string(missing) + " frame(s) before a reset have no region or planar-target rows "
+      notes_.warn(std::to_string(missing) + " frame(s) before a reset have no region, planar-target or anchor rows "
                   "(the motion analysis restarted there)");
     stage_seconds_["track_items"] = clock.lap();
   }

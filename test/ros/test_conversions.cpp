@@ -1,4 +1,5 @@
 #include "instant_motion_tracking/ros/conversions.h"
+#include "instant_motion_tracking/ros/markers.h"
 
 #include <gtest/gtest.h>
 
@@ -98,6 +99,49 @@ TEST(Conversions, ImuRejectsNaNAndReadsMissingOrientation) {
   m.angular_velocity.y = NAN;
   EXPECT_FALSE(fromImuMsg(m, &back, &why));
   EXPECT_NE(why.find("NaN"), std::string::npos);
+}
+
+// Anchors: message fields, tf frames `<prefix>anchor_<id>` under the image
+// frame, axes markers; a lost anchor has NaN fields, no tf and no marker.
+TEST(Conversions, AnchorsToMessagesTfAndMarkers) {
+  AnchorState a;
+  a.id = 7;
+  a.pixel = {100.5, 50.25};
+  a.T_cam_anchor.linear() = Eigen::AngleAxisd(0.3, Eigen::Vector3d::UnitY()).toRotationMatrix();
+  a.T_cam_anchor.translation() = Eigen::Vector3d(0.1, -0.2, 1.5);
+  a.status = AnchorStatus::kOutOfView;
+  a.confidence = 0.5;
+  AnchorState lost = a;
+  lost.id = 8;
+  lost.status = AnchorStatus::kLost;
+  std_msgs::Header h;
+  h.frame_id = "cam_optical";
+  h.stamp.fromSec(12.5);
+  const auto m = toMsg(std::vector<AnchorState>{a, lost}, h);
+  ASSERT_EQ(m.anchors.size(), 2u);
+  EXPECT_EQ(m.header.frame_id, "cam_optical");
+  EXPECT_FLOAT_EQ(m.anchors[0].u, 100.5f);
+  EXPECT_EQ(m.anchors[0].status, "out_of_view");
+  EXPECT_DOUBLE_EQ(m.anchors[0].pose.position.z, 1.5);
+  EXPECT_NEAR(m.anchors[0].pose.orientation.y, std::sin(0.15), 1e-12);
+  EXPECT_EQ(m.anchors[1].status, "lost");
+  EXPECT_TRUE(std::isnan(m.anchors[1].u) && std::isnan(m.anchors[1].pose.position.x));
+  const auto tf = anchorTransforms({a, lost}, h, "robot1/");
+  ASSERT_EQ(tf.size(), 1u);
+  EXPECT_EQ(tf[0].child_frame_id, "robot1/anchor_7");
+  EXPECT_EQ(tf[0].header.frame_id, "cam_optical");
+  EXPECT_EQ(tf[0].header.stamp, h.stamp);
+  EXPECT_DOUBLE_EQ(tf[0].transform.translation.y, -0.2);
+  const auto markers = anchorMarkers({a, lost}, h, 0.1);
+  ASSERT_EQ(markers.markers.size(), 2u);  // axes + label of anchor 7
+  const auto& axes = markers.markers[0];
+  ASSERT_EQ(axes.points.size(), 6u);
+  // The z axis (blue) ends 0.1 m along the anchor's z.
+  const Eigen::Vector3d tip = a.T_cam_anchor * Eigen::Vector3d(0, 0, 0.1);
+  EXPECT_NEAR(axes.points[5].x, tip.x(), 1e-12);
+  EXPECT_NEAR(axes.points[5].z, tip.z(), 1e-12);
+  EXPECT_EQ(axes.colors[5].b, 1.0f);
+  EXPECT_EQ(markers.markers[1].text, "7 out_of_view");
 }
 
 }  // namespace

@@ -2,6 +2,7 @@
 // rosbag C++ API, the built binary run on them, its exit status, stderr and
 // output files checked. Every run is wrapped in `timeout 60`, so a hang fails
 // (status 124) instead of blocking the suite.
+#include "instant_motion_tracking/AnchorArray.h"
 #include "instant_motion_tracking/MotionData.h"
 #include "instant_motion_tracking/io/csv_writer.h"
 
@@ -406,6 +407,41 @@ TEST_F(TrackBag, InitEntriesAtAnyFrameOutBagAndRotationFromTfStatic) {
   }
   ASSERT_EQ(stamps.size(), 20u);
   for (int i = 0; i < 20; ++i) EXPECT_NEAR(stamps[i], 1000.0 + i / 30.0, 1e-9);
+
+  // ...one /anchors per frame, as anchors.csv says (1e-6: the CSV's decimals),
+  // and each frame's /tf carries anchor_2 (and planar_target_1) under the image frame.
+  int i = 0;
+  for (const rosbag::MessageInstance& m : rosbag::View(bag, rosbag::TopicQuery("/anchors"))) {
+    const auto a = m.instantiate<instant_motion_tracking::AnchorArray>();
+    ASSERT_TRUE(a);
+    ASSERT_LT(i, 20);
+    EXPECT_EQ(a->header.frame_id, "cam_optical");
+    EXPECT_NEAR(a->header.stamp.toSec(), 1000.0 + i / 30.0, 1e-9);
+    ASSERT_EQ(a->anchors.size(), 1u);
+    EXPECT_EQ(a->anchors[0].id, 2u);
+    EXPECT_EQ(a->anchors[0].status, anchors[1 + i][11]);
+    if (anchors[1 + i][11] != "lost") {
+      EXPECT_NEAR(a->anchors[0].u, std::stod(anchors[1 + i][2]), 1e-3);
+      EXPECT_NEAR(a->anchors[0].pose.position.z, std::stod(anchors[1 + i][6]), 1e-6);
+    }
+    ++i;
+  }
+  EXPECT_EQ(i, 20);
+  int anchor_tf = 0, target_tf = 0;
+  for (const rosbag::MessageInstance& m : rosbag::View(bag, rosbag::TopicQuery("/tf"))) {
+    const auto tf = m.instantiate<tf2_msgs::TFMessage>();
+    ASSERT_TRUE(tf);
+    for (const auto& t : tf->transforms) {
+      EXPECT_EQ(t.header.frame_id, "cam_optical");
+      anchor_tf += t.child_frame_id == "anchor_2";
+      target_tf += t.child_frame_id == "planar_target_1";
+    }
+  }
+  int anchor_rows_with_pose = 0;
+  for (int k = 0; k < 20; ++k) anchor_rows_with_pose += anchors[1 + k][11] != "lost";
+  EXPECT_EQ(anchor_tf, anchor_rows_with_pose);
+  EXPECT_GT(anchor_tf, 0);
+  EXPECT_GT(target_tf, 0);
 }
 
 TEST_F(TrackBag, StartAndEndSelectAWindowOfTheBag) {

@@ -6,6 +6,7 @@
 
 #include <csignal>
 #include <string>
+#include <vector>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -31,6 +32,23 @@ inline pid_t playImages(const std::string& bag) {
   if (player == 0) {
     execl("/usr/lib/rosbag/play", "play", "--quiet", "--wait-for-subscribers", "--topics", "/camera/image_raw",
           "--bags", bag.c_str(), static_cast<char*>(nullptr));
+    _exit(127);
+  }
+  return player;
+}
+
+// The same for several topics of `bag` (rosbag play waits for a subscriber
+// on each of them).
+inline pid_t playTopics(const std::string& bag, const std::vector<std::string>& topics) {
+  std::vector<std::string> args = {"play", "--quiet", "--wait-for-subscribers", "--topics"};
+  args.insert(args.end(), topics.begin(), topics.end());
+  args.insert(args.end(), {"--bags", bag});
+  const pid_t player = fork();
+  if (player == 0) {
+    std::vector<char*> argv;
+    for (std::string& a : args) argv.push_back(a.data());
+    argv.push_back(nullptr);
+    execv("/usr/lib/rosbag/play", argv.data());
     _exit(127);
   }
   return player;

@@ -9,6 +9,7 @@
 //   template <class S> void section(const char* name, S& sub);       // nested struct
 #pragma once
 
+#include "instant_motion_tracking/core/anchor_manager.h"
 #include "instant_motion_tracking/core/imu_orientation.h"
 #include "instant_motion_tracking/core/planar_target.h"
 #include "instant_motion_tracking/core/region_tracker_options.h"
@@ -113,6 +114,7 @@ struct PipelineOptions {
   RegionTrackerOptions region_tracking;
   PlanarTargetOptions planar_tracking;
   ImuOptions imu;
+  AnchorOptions anchors;
 
   template <class V>
   void visit(V& v) {
@@ -122,6 +124,7 @@ struct PipelineOptions {
     v.section("region_tracking", region_tracking);
     v.section("planar_tracking", planar_tracking);
     v.section("imu", imu);
+    v.section("anchors", anchors);
   }
   std::string validate() const;
 };

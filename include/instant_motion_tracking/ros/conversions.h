@@ -3,9 +3,11 @@
 // centres at integers), the core ours (docs/conventions.md).
 #pragma once
 
+#include "instant_motion_tracking/AnchorArray.h"
 #include "instant_motion_tracking/MotionData.h"
 #include "instant_motion_tracking/PlanarTargetArray.h"
 #include "instant_motion_tracking/TrackedRegionArray.h"
+#include "instant_motion_tracking/core/anchor_manager.h"
 #include "instant_motion_tracking/core/planar_target.h"
 #include "instant_motion_tracking/core/region_tracker.h"
 #include "instant_motion_tracking/core/types.h"
@@ -48,5 +50,14 @@ instant_motion_tracking::PlanarTargetArray toMsg(const std::vector<PlanarTargetS
 std::vector<geometry_msgs::TransformStamped> planarTargetTransforms(
     const std::vector<PlanarTargetState>& states, const std_msgs::Header& header,
     const std::string& frame_prefix);
+
+// A lost anchor's pixel and pose are reported as NaN (no estimate).
+instant_motion_tracking::Anchor toMsg(const AnchorState& s);
+instant_motion_tracking::AnchorArray toMsg(const std::vector<AnchorState>& states, const std_msgs::Header& header);
+// tf2 transforms `<prefix>anchor_<id>` (children of header.frame_id), one per
+// anchor that is not lost (out_of_view and no_imu included: they have a pose).
+std::vector<geometry_msgs::TransformStamped> anchorTransforms(const std::vector<AnchorState>& states,
+                                                              const std_msgs::Header& header,
+                                                              const std::string& frame_prefix);
 
 }  // namespace imt

@@ -3,6 +3,7 @@
 // image's frame, with its id and status as text.
 #pragma once
 
+#include "instant_motion_tracking/core/anchor_manager.h"
 #include "instant_motion_tracking/core/planar_target.h"
 #include "instant_motion_tracking/core/region_tracker.h"
 
@@ -21,5 +22,10 @@ visualization_msgs::MarkerArray regionMarkers(const std::vector<RegionState>& st
 // frame, with its id as text; lost targets are left out.
 visualization_msgs::MarkerArray planarTargetMarkers(const std::vector<PlanarTargetState>& states,
                                                     const std_msgs::Header& header);
+
+// Each anchor's axes (x red, y green, z blue, `axis_m` long) at its pose, in
+// the image's frame, with its id and status as text; lost anchors are left out.
+visualization_msgs::MarkerArray anchorMarkers(const std::vector<AnchorState>& states,
+                                              const std_msgs::Header& header, double axis_m = 0.1);
 
 }  // namespace imt

@@ -54,8 +54,8 @@ void MotionAnalysisNodelet::imageCb(const sensor_msgs::ImageConstPtr& msg) {
     return;
   }
   const MotionData md = analyzer_->process(gray, msg->header.stamp.toSec());
-  if (!analyzer_->lastReset().empty()) {
-    NODELET_WARN_THROTTLE(5.0, "motion analysis reset at stamp %.6f: %s", msg->header.stamp.toSec(),
+  if (!analyzer_->lastReset().empty() && health_.noteReset(analyzer_->lastReset())) {
+    NODELET_WARN("motion analysis reset at stamp %.6f: %s", msg->header.stamp.toSec(),
                  analyzer_->lastReset().c_str());
   }
   ++frames_;

@@ -70,7 +70,7 @@ void PlanarTargetNodelet::motionCb(const instant_motion_tracking::MotionDataCons
   std::string reset;
   if (!cache_->push(md, &reset)) {
     targets_->clear();
-    NODELET_WARN_THROTTLE(5.0, "%s; planar targets cleared", reset.c_str());
+    if (health_.noteReset(reset)) NODELET_WARN("%s; planar targets cleared", reset.c_str());
   }
   const std::vector<PlanarTargetState> states = targets_->update(*cache_);
   if (targets_pub_.getNumSubscribers() > 0) targets_pub_.publish(toMsg(states, msg->header));

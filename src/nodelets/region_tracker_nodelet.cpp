@@ -62,7 +62,10 @@ void RegionTrackerNodelet::motionCb(const instant_motion_tracking::MotionDataCon
   }
   frame_id_ = msg->header.frame_id;
   const std::vector<RegionState> states = manager_->update(md);
-  if (!manager_->lastReset().empty()) NODELET_WARN_THROTTLE(5.0, "%s", manager_->lastReset().c_str());
+  if (!manager_->lastReset().empty()) {
+    reported_lost_.clear();  // the regions are gone
+    if (health_.noteReset(manager_->lastReset())) NODELET_WARN("%s", manager_->lastReset().c_str());
+  }
   for (const RegionState& s : states) {
     if (s.status == RegionStatus::kLost && !reported_lost_.count(s.id)) {
       reported_lost_.insert(s.id);  // said once per region

@@ -16,6 +16,7 @@
 
 #include "instant_motion_tracking/core/motion_analysis.h"
 #include "instant_motion_tracking/io/config.h"
+#include "instant_motion_tracking/ros/nodelet_health.h"
 
 #include <image_transport/image_transport.h>
 #include <nodelet/nodelet.h>
@@ -42,6 +43,7 @@ class MotionAnalysisNodelet : public nodelet::Nodelet {
   ros::Publisher motion_pub_;
   std::mutex connect_mutex_;
   uint64_t frames_ = 0;
+  NodeletHealth health_;
 };
 
 }  // namespace imt

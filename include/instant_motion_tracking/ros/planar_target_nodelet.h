@@ -24,6 +24,7 @@
 #include "instant_motion_tracking/RemoveRegion.h"
 #include "instant_motion_tracking/core/planar_target_manager.h"
 #include "instant_motion_tracking/io/config.h"
+#include "instant_motion_tracking/ros/nodelet_health.h"
 
 #include <nodelet/nodelet.h>
 #include <ros/ros.h>
@@ -58,6 +59,7 @@ class PlanarTargetNodelet : public nodelet::Nodelet {
   ros::ServiceServer add_srv_, remove_srv_;
   std::unique_ptr<tf2_ros::TransformBroadcaster> tf_;
   std::mutex mutex_;
+  NodeletHealth health_;
 };
 
 }  // namespace imt

@@ -24,6 +24,7 @@
 #include "instant_motion_tracking/SeekRegions.h"
 #include "instant_motion_tracking/core/region_manager.h"
 #include "instant_motion_tracking/io/config.h"
+#include "instant_motion_tracking/ros/nodelet_health.h"
 
 #include <nodelet/nodelet.h>
 #include <ros/ros.h>
@@ -58,6 +59,7 @@ class RegionTrackerNodelet : public nodelet::Nodelet {
   ros::ServiceServer add_srv_, remove_srv_, seek_srv_;
   std::mutex mutex_;
   std::set<uint32_t> reported_lost_;  // regions whose loss was logged
+  NodeletHealth health_;
 };
 
 }  // namespace imt

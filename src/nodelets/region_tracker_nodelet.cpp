@@ -28,6 +28,8 @@ void RegionTrackerNodelet::onInit() {
   add_srv_ = nh.advertiseService("add_region", &RegionTrackerNodelet::addCb, this);
   remove_srv_ = nh.advertiseService("remove_region", &RegionTrackerNodelet::removeCb, this);
   seek_srv_ = nh.advertiseService("seek_regions", &RegionTrackerNodelet::seekCb, this);
+  health_.start(nh, getPrivateNodeHandle(), getName(), nh.resolveName("motion_data"),
+                config_.ros.diagnostic_period, "regions", {"tracked", "featureless", "out_of_view", "lost"});
   updateSubscription();
 }
 
@@ -40,6 +42,7 @@ void RegionTrackerNodelet::updateSubscription() {
   } else if (!wanted && motion_sub_) {
     motion_sub_.shutdown();
   }
+  health_.setSubscribed(bool(motion_sub_));
 }
 
 void RegionTrackerNodelet::infoCb(const sensor_msgs::CameraInfoConstPtr& msg) {
@@ -54,10 +57,12 @@ void RegionTrackerNodelet::infoCb(const sensor_msgs::CameraInfoConstPtr& msg) {
 }
 
 void RegionTrackerNodelet::motionCb(const instant_motion_tracking::MotionDataConstPtr& msg) {
+  const ros::WallTime started = ros::WallTime::now();
   std::lock_guard<std::mutex> lock(mutex_);
   const MotionData md = fromMsg(*msg);
   if (md.width <= 0 || md.height <= 0) {
     NODELET_WARN_THROTTLE(5.0, "dropping motion_data without an image size");
+    health_.noteDropped("motion_data without an image size");
     return;
   }
   frame_id_ = msg->header.frame_id;
@@ -79,6 +84,10 @@ void RegionTrackerNodelet::motionCb(const instant_motion_tracking::MotionDataCon
       k = CameraIntrinsics::fromFieldOfView(md.width, md.height, config_.pipeline.default_hfov_deg);
     markers_pub_.publish(regionMarkers(states, msg->header, k));
   }
+  std::vector<std::string> statuses;
+  for (const RegionState& s : states) statuses.push_back(regionStatusName(s.status));
+  health_.setItems(statuses);
+  health_.noteFrame(msg->header.stamp, started);
 }
 
 bool RegionTrackerNodelet::addCb(instant_motion_tracking::AddRegion::Request& req,

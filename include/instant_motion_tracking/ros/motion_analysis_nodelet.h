@@ -9,7 +9,9 @@
 //   debug_image               sensor_msgs/Image (bgr8): features, fg red / bg green, vectors
 // Parameters (private namespace, documented in config/default.yaml):
 //   ~motion_analysis/*        MotionAnalysisOptions
-//   ~queue_size, ~always_subscribe
+//   ~queue_size, ~always_subscribe, ~diagnostic_period
+// Diagnostics (/diagnostics, ros/nodelet_health.h): input rate, processing time and
+// delay after the image stamp.
 // Bad input (unsupported encoding, malformed image, size change, time going
 // backwards) is logged once or throttled, and the nodelet lives on.
 #pragma once

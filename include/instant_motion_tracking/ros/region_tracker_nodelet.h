@@ -12,7 +12,9 @@
 //   remove_region     RemoveRegion
 //   seek_regions      SeekRegions: states at any cached stamp
 // Parameters (private namespace; config/default.yaml): cache_seconds,
-//   default_hfov_deg, region_tracking/*, queue_size, always_subscribe.
+//   default_hfov_deg, region_tracking/*, queue_size, always_subscribe, diagnostic_period.
+// Diagnostics (/diagnostics, ros/nodelet_health.h): input rate, processing time and
+// delay after the image stamp, regions by status.
 // motion_data is subscribed while an output has a subscriber, a region
 // exists, or ~always_subscribe is set. Bad requests get success=false and a
 // message; nothing a client sends can stop the nodelet.

@@ -31,6 +31,8 @@ void MotionAnalysisNodelet::onInit() {
   if (config_.ros.always_subscribe) {
     image_sub_ = it_->subscribe("image", config_.ros.queue_size, &MotionAnalysisNodelet::imageCb, this);
   }
+  health_.start(nh, pnh, getName(), nh.resolveName("image"), config_.ros.diagnostic_period);
+  health_.setSubscribed(bool(image_sub_));
 }
 
 void MotionAnalysisNodelet::connectCb() {
@@ -44,18 +46,21 @@ void MotionAnalysisNodelet::connectCb() {
     NODELET_DEBUG("no subscribers left: unsubscribing from the image");
     image_sub_.shutdown();
   }
+  health_.setSubscribed(bool(image_sub_));
 }
 
 void MotionAnalysisNodelet::imageCb(const sensor_msgs::ImageConstPtr& msg) {
+  const ros::WallTime started = ros::WallTime::now();
   cv::Mat gray;
   std::string error;
   if (!imageToGray(*msg, &gray, &error)) {
     NODELET_WARN_THROTTLE(5.0, "dropping image: %s", error.c_str());
+    health_.noteDropped(error);
     return;
   }
   const MotionData md = analyzer_->process(gray, msg->header.stamp.toSec());
-  if (!analyzer_->lastReset().empty()) {
-    NODELET_WARN_THROTTLE(5.0, "motion analysis reset at stamp %.6f: %s", msg->header.stamp.toSec(),
+  if (!analyzer_->lastReset().empty() && health_.noteReset(analyzer_->lastReset())) {
+    NODELET_WARN("motion analysis reset at stamp %.6f: %s", msg->header.stamp.toSec(),
                  analyzer_->lastReset().c_str());
   }
   ++frames_;
@@ -63,6 +68,7 @@ void MotionAnalysisNodelet::imageCb(const sensor_msgs::ImageConstPtr& msg) {
   if (debug_pub_.getNumSubscribers() > 0) {
     debug_pub_.publish(cv_bridge::CvImage(msg->header, "bgr8", drawMotionData(gray, md)).toImageMsg());
   }
+  health_.noteFrame(msg->header.stamp, started);
 }
 
 }  // namespace imt

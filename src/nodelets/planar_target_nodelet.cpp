@@ -28,6 +28,9 @@ void PlanarTargetNodelet::onInit() {
   info_sub_ = nh.subscribe("camera_info", 1, &PlanarTargetNodelet::infoCb, this);
   add_srv_ = nh.advertiseService("add_planar_target", &PlanarTargetNodelet::addCb, this);
   remove_srv_ = nh.advertiseService("remove_planar_target", &PlanarTargetNodelet::removeCb, this);
+  health_.start(nh, getPrivateNodeHandle(), getName(), nh.resolveName("motion_data"),
+                config_.ros.diagnostic_period, "planar targets", {"tracked", "out_of_view", "lost"});
+  health_.setSubscribed(bool(motion_sub_));
 }
 
 // Lazy like the other nodelets: motion_data is subscribed while an output has
@@ -41,6 +44,7 @@ void PlanarTargetNodelet::updateSubscription() {
   } else if (!wanted && motion_sub_) {
     motion_sub_.shutdown();
   }
+  health_.setSubscribed(bool(motion_sub_));
 }
 
 CameraIntrinsics PlanarTargetNodelet::intrinsics() const {
@@ -61,16 +65,18 @@ void PlanarTargetNodelet::infoCb(const sensor_msgs::CameraInfoConstPtr& msg) {
 }
 
 void PlanarTargetNodelet::motionCb(const instant_motion_tracking::MotionDataConstPtr& msg) {
+  const ros::WallTime started = ros::WallTime::now();
   std::lock_guard<std::mutex> lock(mutex_);
   const MotionData md = fromMsg(*msg);
   if (md.width <= 0 || md.height <= 0) {
     NODELET_WARN_THROTTLE(5.0, "dropping motion_data without an image size");
+    health_.noteDropped("motion_data without an image size");
     return;
   }
   std::string reset;
   if (!cache_->push(md, &reset)) {
     targets_->clear();
-    NODELET_WARN_THROTTLE(5.0, "%s; planar targets cleared", reset.c_str());
+    if (health_.noteReset(reset)) NODELET_WARN("%s; planar targets cleared", reset.c_str());
   }
   const std::vector<PlanarTargetState> states = targets_->update(*cache_);
   if (targets_pub_.getNumSubscribers() > 0) targets_pub_.publish(toMsg(states, msg->header));
@@ -79,6 +85,10 @@ void PlanarTargetNodelet::motionCb(const instant_motion_tracking::MotionDataCons
     if (!transforms.empty()) tf_->sendTransform(transforms);
   }
   if (markers_pub_.getNumSubscribers() > 0) markers_pub_.publish(planarTargetMarkers(states, msg->header));
+  std::vector<std::string> statuses;
+  for (const PlanarTargetState& s : states) statuses.push_back(targetStatusName(s.status));
+  health_.setItems(statuses);
+  health_.noteFrame(msg->header.stamp, started);
 }
 
 bool PlanarTargetNodelet::addCb(instant_motion_tracking::AddPlanarTarget::Request& req,

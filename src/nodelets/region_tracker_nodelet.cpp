@@ -28,6 +28,8 @@ void RegionTrackerNodelet::onInit() {
   add_srv_ = nh.advertiseService("add_region", &RegionTrackerNodelet::addCb, this);
   remove_srv_ = nh.advertiseService("remove_region", &RegionTrackerNodelet::removeCb, this);
   seek_srv_ = nh.advertiseService("seek_regions", &RegionTrackerNodelet::seekCb, this);
+  health_.start(nh, getPrivateNodeHandle(), getName(), nh.resolveName("motion_data"),
+                config_.ros.diagnostic_period, "regions", {"tracked", "featureless", "out_of_view", "lost"});
   updateSubscription();
 }
 
@@ -40,6 +42,7 @@ void RegionTrackerNodelet::updateSubscription() {
   } else if (!wanted && motion_sub_) {
     motion_sub_.shutdown();
   }
+  health_.setSubscribed(bool(motion_sub_));
 }
 
 void RegionTrackerNodelet::infoCb(const sensor_msgs::CameraInfoConstPtr& msg) {
@@ -54,15 +57,20 @@ void RegionTrackerNodelet::infoCb(const sensor_msgs::CameraInfoConstPtr& msg) {
 }
 
 void RegionTrackerNodelet::motionCb(const instant_motion_tracking::MotionDataConstPtr& msg) {
+  const ros::WallTime started = ros::WallTime::now();
   std::lock_guard<std::mutex> lock(mutex_);
   const MotionData md = fromMsg(*msg);
   if (md.width <= 0 || md.height <= 0) {
     NODELET_WARN_THROTTLE(5.0, "dropping motion_data without an image size");
+    health_.noteDropped("motion_data without an image size");
     return;
   }
   frame_id_ = msg->header.frame_id;
   const std::vector<RegionState> states = manager_->update(md);
-  if (!manager_->lastReset().empty()) NODELET_WARN_THROTTLE(5.0, "%s", manager_->lastReset().c_str());
+  if (!manager_->lastReset().empty()) {
+    reported_lost_.clear();  // the regions are gone
+    if (health_.noteReset(manager_->lastReset())) NODELET_WARN("%s", manager_->lastReset().c_str());
+  }
   for (const RegionState& s : states) {
     if (s.status == RegionStatus::kLost && !reported_lost_.count(s.id)) {
       reported_lost_.insert(s.id);  // said once per region
@@ -76,6 +84,10 @@ void RegionTrackerNodelet::motionCb(const instant_motion_tracking::MotionDataCon
       k = CameraIntrinsics::fromFieldOfView(md.width, md.height, config_.pipeline.default_hfov_deg);
     markers_pub_.publish(regionMarkers(states, msg->header, k));
   }
+  std::vector<std::string> statuses;
+  for (const RegionState& s : states) statuses.push_back(regionStatusName(s.status));
+  health_.setItems(statuses);
+  health_.noteFrame(msg->header.stamp, started);
 }
 
 bool RegionTrackerNodelet::addCb(instant_motion_tracking::AddRegion::Request& req,

@@ -1,8 +1,10 @@
 // Helpers shared by the rostest nodes: wall-time polling (the graph may run
-// on sim time) and playing a bag's images into the graph as a child process.
+// on sim time), playing a bag's images into the graph as a child process,
+// and driving the paused player of launch/replay.launch.
 #pragma once
 
 #include <ros/ros.h>
+#include <std_srvs/SetBool.h>
 
 #include <csignal>
 #include <string>
@@ -57,6 +59,27 @@ inline pid_t playTopics(const std::string& bag, const std::vector<std::string>& 
 inline void stopPlayer(pid_t player) {
   kill(player, SIGINT);
   waitpid(player, nullptr, 0);
+}
+
+// True when some node subscribes to `topic` (asks the master: the lazy
+// nodelets subscribe to their inputs only once their outputs are wanted).
+inline bool topicHasSubscriber(const std::string& topic) {
+  XmlRpc::XmlRpcValue args, result, payload;
+  args[0] = ros::this_node::getName();
+  if (!ros::master::execute("getSystemState", args, result, payload, false)) return false;
+  XmlRpc::XmlRpcValue& subscribers = payload[1];
+  for (int i = 0; i < subscribers.size(); ++i)
+    if (static_cast<std::string>(subscribers[i][0]) == topic) return subscribers[i][1].size() > 0;
+  return false;
+}
+
+// Pauses or resumes a `rosbag play --pause` started by launch/replay.launch
+// (its node is named `player`). False when the service is missing (the
+// player answers success=false when it already is in that state: not an error).
+inline bool setPlayerPaused(bool paused, const std::string& service = "/player/pause_playback") {
+  std_srvs::SetBool srv;
+  srv.request.data = paused;
+  return ros::service::waitForService(service, ros::Duration(30)) && ros::service::call(service, srv);
 }
 
 }  // namespace test

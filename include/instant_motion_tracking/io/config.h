@@ -17,6 +17,7 @@ struct RosShellOptions {
   std::string frame_prefix;        // prefix of those tf frame names
   bool always_subscribe = false;   // subscribe to inputs even without subscribers (e.g. tf-only consumers)
   int queue_size = 5;              // subscriber queue length (frames)
+  double diagnostic_period = 1.0;  // s (wall time) between /diagnostics reports
 
   template <class V>
   void visit(V& v) {
@@ -24,6 +25,7 @@ struct RosShellOptions {
     v("frame_prefix", frame_prefix, "prefix of those tf frame names");
     v("always_subscribe", always_subscribe, "subscribe to inputs even without subscribers");
     v("queue_size", queue_size, "subscriber queue length (frames)");
+    v("diagnostic_period", diagnostic_period, "s (wall time) between /diagnostics reports");
   }
   std::string validate() const;
 };

@@ -9,13 +9,16 @@
 //   debug_image               sensor_msgs/Image (bgr8): features, fg red / bg green, vectors
 // Parameters (private namespace, documented in config/default.yaml):
 //   ~motion_analysis/*        MotionAnalysisOptions
-//   ~queue_size, ~always_subscribe
+//   ~queue_size, ~always_subscribe, ~diagnostic_period
+// Diagnostics (/diagnostics, ros/nodelet_health.h): input rate, processing time and
+// delay after the image stamp.
 // Bad input (unsupported encoding, malformed image, size change, time going
 // backwards) is logged once or throttled, and the nodelet lives on.
 #pragma once
 
 #include "instant_motion_tracking/core/motion_analysis.h"
 #include "instant_motion_tracking/io/config.h"
+#include "instant_motion_tracking/ros/nodelet_health.h"
 
 #include <image_transport/image_transport.h>
 #include <nodelet/nodelet.h>
@@ -42,6 +45,7 @@ class MotionAnalysisNodelet : public nodelet::Nodelet {
   ros::Publisher motion_pub_;
   std::mutex connect_mutex_;
   uint64_t frames_ = 0;
+  NodeletHealth health_;
 };
 
 }  // namespace imt

@@ -13,7 +13,9 @@
 //   add_planar_target    AddPlanarTarget: corners TL, TR, BR, BL at a cached stamp (0 = latest) + size
 //   remove_planar_target RemoveRegion
 // Parameters (private namespace; config/default.yaml): cache_seconds, default_hfov_deg,
-//   planar_tracking/*, publish_tf, frame_prefix, queue_size, always_subscribe.
+//   planar_tracking/*, publish_tf, frame_prefix, queue_size, always_subscribe, diagnostic_period.
+// Diagnostics (/diagnostics, ros/nodelet_health.h): input rate, processing time and
+// delay after the image stamp, planar targets by status.
 // motion_data is subscribed while an output has a subscriber, a target exists,
 // or ~always_subscribe is set. Bad requests get success=false and a message;
 // the nodelet lives on.
@@ -24,6 +26,7 @@
 #include "instant_motion_tracking/RemoveRegion.h"
 #include "instant_motion_tracking/core/planar_target_manager.h"
 #include "instant_motion_tracking/io/config.h"
+#include "instant_motion_tracking/ros/nodelet_health.h"
 
 #include <nodelet/nodelet.h>
 #include <ros/ros.h>
@@ -58,6 +61,7 @@ class PlanarTargetNodelet : public nodelet::Nodelet {
   ros::ServiceServer add_srv_, remove_srv_;
   std::unique_ptr<tf2_ros::TransformBroadcaster> tf_;
   std::mutex mutex_;
+  NodeletHealth health_;
 };
 
 }  // namespace imt

@@ -12,7 +12,9 @@
 //   remove_region     RemoveRegion
 //   seek_regions      SeekRegions: states at any cached stamp
 // Parameters (private namespace; config/default.yaml): cache_seconds,
-//   default_hfov_deg, region_tracking/*, queue_size, always_subscribe.
+//   default_hfov_deg, region_tracking/*, queue_size, always_subscribe, diagnostic_period.
+// Diagnostics (/diagnostics, ros/nodelet_health.h): input rate, processing time and
+// delay after the image stamp, regions by status.
 // motion_data is subscribed while an output has a subscriber, a region
 // exists, or ~always_subscribe is set. Bad requests get success=false and a
 // message; nothing a client sends can stop the nodelet.
@@ -24,6 +26,7 @@
 #include "instant_motion_tracking/SeekRegions.h"
 #include "instant_motion_tracking/core/region_manager.h"
 #include "instant_motion_tracking/io/config.h"
+#include "instant_motion_tracking/ros/nodelet_health.h"
 
 #include <nodelet/nodelet.h>
 #include <ros/ros.h>
@@ -58,6 +61,7 @@ class RegionTrackerNodelet : public nodelet::Nodelet {
   ros::ServiceServer add_srv_, remove_srv_, seek_srv_;
   std::mutex mutex_;
   std::set<uint32_t> reported_lost_;  // regions whose loss was logged
+  NodeletHealth health_;
 };
 
 }  // namespace imt

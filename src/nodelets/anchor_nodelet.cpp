@@ -32,6 +32,9 @@ void AnchorNodelet::onInit() {
   info_sub_ = nh.subscribe("camera_info", 1, &AnchorNodelet::infoCb, this);
   add_srv_ = nh.advertiseService("add_anchor", &AnchorNodelet::addCb, this);
   remove_srv_ = nh.advertiseService("remove_anchor", &AnchorNodelet::removeCb, this);
+  health_.start(nh, getPrivateNodeHandle(), getName(), nh.resolveName("motion_data"),
+                config_.ros.diagnostic_period, "anchors",
+                {"tracked", "out_of_view", "no_imu", "lost"});
   updateSubscription();
 }
 
@@ -50,7 +53,9 @@ void AnchorNodelet::updateSubscription() {
     regions_->clear();
     anchors_->resetImu();
     pending_.clear();
+    pending_started_.clear();
   }
+  health_.setSubscribed(bool(motion_sub_));
 }
 
 void AnchorNodelet::infoCb(const sensor_msgs::CameraInfoConstPtr& msg) {
@@ -118,31 +123,40 @@ void AnchorNodelet::imuCb(const sensor_msgs::ImuConstPtr& msg) {
 }
 
 void AnchorNodelet::motionCb(const instant_motion_tracking::MotionDataConstPtr& msg) {
+  const ros::WallTime started = ros::WallTime::now();
   std::lock_guard<std::mutex> lock(mutex_);
   const MotionData md = fromMsg(*msg);
   if (md.width <= 0 || md.height <= 0) {
     NODELET_WARN_THROTTLE(5.0, "dropping motion_data without an image size");
+    health_.noteDropped("motion_data without an image size");
     return;
   }
   camera_frame_ = msg->header.frame_id;
   regions_->update(md);
   if (!regions_->lastReset().empty()) {
-    NODELET_WARN_THROTTLE(5.0, "%s; anchors cleared", regions_->lastReset().c_str());
+    // Time went back (a looping bag) or the image size changed: the frames
+    // waiting for the IMU and the tf history belong to the old stream.
+    if (health_.noteReset(regions_->lastReset()))
+      NODELET_WARN("%s; anchors cleared", regions_->lastReset().c_str());
     pending_.clear();
+    pending_started_.clear();
+    tf_buffer_->clear();
   }
   anchors_->update();
   pending_.push_back(msg->header);
+  pending_started_.push_back(started);
   flush();
 }
 
 void AnchorNodelet::flush() {
   while (!pending_.empty() && anchors_->ready(pending_.front().stamp.toSec())) {
-    publish(pending_.front());
+    publish(pending_.front(), pending_started_.front());
     pending_.pop_front();
+    pending_started_.pop_front();
   }
 }
 
-void AnchorNodelet::publish(const std_msgs::Header& header) {
+void AnchorNodelet::publish(const std_msgs::Header& header, const ros::WallTime& started) {
   std::vector<AnchorState> states;
   std::string error;
   if (!anchors_->stateAt(header.stamp.toSec(), {}, &states, &error)) {
@@ -163,6 +177,11 @@ void AnchorNodelet::publish(const std_msgs::Header& header) {
     if (!transforms.empty()) tf_->sendTransform(transforms);
   }
   if (markers_pub_.getNumSubscribers() > 0) markers_pub_.publish(anchorMarkers(states, header));
+  std::vector<std::string> statuses;
+  for (const AnchorState& s : states) statuses.push_back(anchorStatusName(s.status));
+  health_.setItems(statuses);
+  // Processing time includes the wait for the IMU: what a consumer sees.
+  health_.noteFrame(header.stamp, started);
 }
 
 bool AnchorNodelet::addCb(instant_motion_tracking::AddAnchor::Request& req,

@@ -1,6 +1,7 @@
 #include "instant_motion_tracking/ros/planar_target_nodelet.h"
 
 #include "instant_motion_tracking/ros/conversions.h"
+#include "instant_motion_tracking/ros/image_conversion.h"
 #include "instant_motion_tracking/ros/markers.h"
 #include "instant_motion_tracking/ros/params.h"
 
@@ -16,6 +17,9 @@ void PlanarTargetNodelet::onInit() {
   }
   cache_ = std::make_unique<MotionCache>(config_.pipeline.cache_seconds);
   targets_ = std::make_unique<PlanarTargetManager>(config_.pipeline.planar_tracking);
+  if (wantImages())
+    cache_->setImageBudget(static_cast<size_t>(config_.pipeline.planar_tracking.image_memory_mb * 1024 * 1024));
+  it_ = std::make_unique<image_transport::ImageTransport>(nh);
   tf_ = std::make_unique<tf2_ros::TransformBroadcaster>();
   std::lock_guard<std::mutex> lock(mutex_);
   auto cb = [this](const ros::SingleSubscriberPublisher&) {
@@ -41,8 +45,13 @@ void PlanarTargetNodelet::updateSubscription() {
   if (wanted && !motion_sub_) {
     motion_sub_ = getNodeHandle().subscribe("motion_data", 10 * config_.ros.queue_size,
                                             &PlanarTargetNodelet::motionCb, this);
+    if (wantImages())
+      image_sub_ = it_->subscribe("image", config_.ros.queue_size, &PlanarTargetNodelet::imageCb, this);
   } else if (!wanted && motion_sub_) {
     motion_sub_.shutdown();
+    image_sub_.shutdown();
+    flush(true);
+    images_.clear();
   }
   health_.setSubscribed(bool(motion_sub_));
 }
@@ -64,31 +73,77 @@ void PlanarTargetNodelet::infoCb(const sensor_msgs::CameraInfoConstPtr& msg) {
   }
 }
 
-void PlanarTargetNodelet::motionCb(const instant_motion_tracking::MotionDataConstPtr& msg) {
-  const ros::WallTime started = ros::WallTime::now();
+bool PlanarTargetNodelet::wantImages() const {
+  const PlanarTargetOptions& o = config_.pipeline.planar_tracking;
+  return o.refine && o.model == "perspective" && o.image_memory_mb > 0;
+}
+
+void PlanarTargetNodelet::imageCb(const sensor_msgs::ImageConstPtr& msg) {
+  cv::Mat gray;
+  std::string error;
+  if (!imageToGray(*msg, &gray, &error)) {
+    NODELET_WARN_THROTTLE(5.0, "image not used for the alignment: %s", error.c_str());
+    return;
+  }
   std::lock_guard<std::mutex> lock(mutex_);
-  const MotionData md = fromMsg(*msg);
+  last_image_ = ros::WallTime::now();
+  const double stamp = msg->header.stamp.toSec();
+  if (!images_.empty() && stamp < images_.rbegin()->first) images_.clear();  // time went back
+  images_[stamp] = gray;
+  while (images_.size() > 8) images_.erase(images_.begin());  // motion data never came for these
+  flush(false);
+}
+
+void PlanarTargetNodelet::motionCb(const instant_motion_tracking::MotionDataConstPtr& msg) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  pending_.push_back({msg, ros::WallTime::now()});
+  flush(false);
+}
+
+// Motion data is tracked in order, each frame once its image is here, a later
+// image came (its own was dropped), images stopped arriving, or it has waited
+// for two further frames.
+void PlanarTargetNodelet::flush(bool all) {
+  const bool images_flowing = image_sub_ && (ros::WallTime::now() - last_image_).toSec() < 1.0;
+  while (!pending_.empty()) {
+    const Pending p = pending_.front();
+    const double stamp = p.msg->header.stamp.toSec();
+    const bool have = images_.count(stamp) > 0;
+    const bool later = !images_.empty() && images_.rbegin()->first > stamp;
+    if (!(all || have || later || !images_flowing || pending_.size() > 2)) break;
+    pending_.pop_front();
+    track(*p.msg, p.started);
+  }
+}
+
+void PlanarTargetNodelet::track(const instant_motion_tracking::MotionData& msg, const ros::WallTime& started) {
+  const MotionData md = fromMsg(msg);
   if (md.width <= 0 || md.height <= 0) {
     NODELET_WARN_THROTTLE(5.0, "dropping motion_data without an image size");
     health_.noteDropped("motion_data without an image size");
     return;
   }
+  cv::Mat gray;
+  const auto it = images_.find(md.stamp);
+  if (it != images_.end() && it->second.cols == md.width && it->second.rows == md.height) gray = it->second;
+  // Images up to this stamp are of no further use.
+  images_.erase(images_.begin(), images_.upper_bound(md.stamp));
   std::string reset;
-  if (!cache_->push(md, &reset)) {
+  if (!cache_->push(md, &reset, gray)) {
     targets_->clear();
     if (health_.noteReset(reset)) NODELET_WARN("%s; planar targets cleared", reset.c_str());
   }
   const std::vector<PlanarTargetState> states = targets_->update(*cache_);
-  if (targets_pub_.getNumSubscribers() > 0) targets_pub_.publish(toMsg(states, msg->header));
+  if (targets_pub_.getNumSubscribers() > 0) targets_pub_.publish(toMsg(states, msg.header));
   if (config_.ros.publish_tf && !states.empty()) {
-    const auto transforms = planarTargetTransforms(states, msg->header, config_.ros.frame_prefix);
+    const auto transforms = planarTargetTransforms(states, msg.header, config_.ros.frame_prefix);
     if (!transforms.empty()) tf_->sendTransform(transforms);
   }
-  if (markers_pub_.getNumSubscribers() > 0) markers_pub_.publish(planarTargetMarkers(states, msg->header));
+  if (markers_pub_.getNumSubscribers() > 0) markers_pub_.publish(planarTargetMarkers(states, msg.header));
   std::vector<std::string> statuses;
   for (const PlanarTargetState& s : states) statuses.push_back(targetStatusName(s.status));
   health_.setItems(statuses);
-  health_.noteFrame(msg->header.stamp, started);
+  health_.noteFrame(msg.header.stamp, started);
 }
 
 bool PlanarTargetNodelet::addCb(instant_motion_tracking::AddPlanarTarget::Request& req,

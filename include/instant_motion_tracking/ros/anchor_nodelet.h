@@ -21,12 +21,14 @@
 //   remove_anchor   RemoveRegion
 // Parameters (private namespace; config/default.yaml): cache_seconds,
 //   default_hfov_deg, region_tracking/*, imu/*, anchors/*, publish_tf,
-//   frame_prefix, queue_size, always_subscribe.
+//   frame_prefix, queue_size, always_subscribe, diagnostic_period.
+// Diagnostics (/diagnostics, ros/nodelet_health.h): input rate, processing
+//   time (including the wait for the IMU), anchors by status; resets logged once.
 // motion_data and imu are subscribed while an output has a subscriber, an
 // anchor exists, add_anchor was just refused for want of frames, or
 // ~always_subscribe is set (unsubscribing forgets the frames and the IMU). Without IMU the anchors
 // are translation-only (status no_imu, throttled warning). Motion data going back in time clears
-// the anchors. Bad requests get success=false and a message.
+// the anchors and the tf buffer. Bad requests get success=false and a message.
 #pragma once
 
 #include "instant_motion_tracking/AddAnchor.h"
@@ -34,6 +36,7 @@
 #include "instant_motion_tracking/RemoveRegion.h"
 #include "instant_motion_tracking/core/anchor_manager.h"
 #include "instant_motion_tracking/io/config.h"
+#include "instant_motion_tracking/ros/nodelet_health.h"
 
 #include <nodelet/nodelet.h>
 #include <ros/ros.h>
@@ -64,12 +67,14 @@ class AnchorNodelet : public nodelet::Nodelet {
                 instant_motion_tracking::RemoveRegion::Response& res);
   void lookupRotation(const std::string& imu_frame);  // R_cam_imu from tf2, once found
   void flush();                                       // publishes the frames that are ready
-  void publish(const std_msgs::Header& header);
+  void publish(const std_msgs::Header& header, const ros::WallTime& started);
 
   Config config_;
   std::unique_ptr<RegionManager> regions_;
   std::unique_ptr<AnchorManager> anchors_;
   std::deque<std_msgs::Header> pending_;  // frames waiting for the IMU
+  std::deque<ros::WallTime> pending_started_;  // when each began processing
+  NodeletHealth health_;
   std::string camera_frame_, imu_frame_;
   bool rotation_known_ = false, imu_seen_ = false;
   bool awaiting_frames_ = false;  // an add_anchor was refused for want of frames: stay subscribed

@@ -4,6 +4,10 @@
 // a rigid 6DoF pose per frame, so the four corners do not drift.
 // Subscribes:
 //   motion_data          instant_motion_tracking/MotionData (from MotionAnalysisNodelet)
+//   image                sensor_msgs/Image via image_transport (~image_transport), for the
+//                        appearance alignment (~planar_tracking/refine); each motion_data
+//                        waits for its image (at most two further frames) and is
+//                        tracked on features alone when it does not come
 //   camera_info          sensor_msgs/CameraInfo (intrinsics; without it, ~default_hfov_deg)
 // Publishes, stamped with the image stamp of the motion data:
 //   planar_targets       instant_motion_tracking/PlanarTargetArray
@@ -16,8 +20,8 @@
 //   planar_tracking/*, publish_tf, frame_prefix, queue_size, always_subscribe, diagnostic_period.
 // Diagnostics (/diagnostics, ros/nodelet_health.h): input rate, processing time and
 // delay after the image stamp, planar targets by status.
-// motion_data is subscribed while an output has a subscriber, a target exists,
-// or ~always_subscribe is set. Bad requests get success=false and a message;
+// motion_data (and image) are subscribed while an output has a subscriber, a
+// target exists, or ~always_subscribe is set. Bad requests get success=false and a message;
 // the nodelet lives on.
 #pragma once
 
@@ -28,11 +32,14 @@
 #include "instant_motion_tracking/io/config.h"
 #include "instant_motion_tracking/ros/nodelet_health.h"
 
+#include <image_transport/image_transport.h>
 #include <nodelet/nodelet.h>
 #include <ros/ros.h>
 #include <sensor_msgs/CameraInfo.h>
 #include <tf2_ros/transform_broadcaster.h>
 
+#include <deque>
+#include <map>
 #include <memory>
 #include <mutex>
 
@@ -45,6 +52,10 @@ class PlanarTargetNodelet : public nodelet::Nodelet {
  private:
   void updateSubscription();  // call with mutex_ held
   void motionCb(const instant_motion_tracking::MotionDataConstPtr& msg);
+  void imageCb(const sensor_msgs::ImageConstPtr& msg);
+  void flush(bool all);  // tracks the motion data whose image came or will not; mutex_ held
+  void track(const instant_motion_tracking::MotionData& msg, const ros::WallTime& started);
+  bool wantImages() const;
   void infoCb(const sensor_msgs::CameraInfoConstPtr& msg);
   bool addCb(instant_motion_tracking::AddPlanarTarget::Request& req,
              instant_motion_tracking::AddPlanarTarget::Response& res);
@@ -57,6 +68,15 @@ class PlanarTargetNodelet : public nodelet::Nodelet {
   std::unique_ptr<PlanarTargetManager> targets_;
   CameraIntrinsics info_;
   ros::Subscriber motion_sub_, info_sub_;
+  std::unique_ptr<image_transport::ImageTransport> it_;
+  image_transport::Subscriber image_sub_;
+  std::map<double, cv::Mat> images_;  // gray frames by stamp, waiting for their motion data
+  struct Pending {
+    instant_motion_tracking::MotionDataConstPtr msg;
+    ros::WallTime started;
+  };
+  std::deque<Pending> pending_;  // motion data waiting for its image
+  ros::WallTime last_image_;
   ros::Publisher targets_pub_, markers_pub_;
   ros::ServiceServer add_srv_, remove_srv_;
   std::unique_ptr<tf2_ros::TransformBroadcaster> tf_;

@@ -90,7 +90,7 @@ void PlanarTargetNodelet::imageCb(const sensor_msgs::ImageConstPtr& msg) {
   const double stamp = msg->header.stamp.toSec();
   if (!images_.empty() && stamp < images_.rbegin()->first) images_.clear();  // time went back
   images_[stamp] = gray;
-  while (images_.size() > 8) images_.erase(images_.begin());  // motion data never came for these
+  while (images_.size() > 30) images_.erase(images_.begin());  // motion data never came for these
   flush(false);
 }
 

@@ -110,6 +110,8 @@ std::string RosShellOptions::validate() const {
   if (queue_size < 1 || queue_size > 1000) return "queue_size: must be in [1, 1000]";
   if (!(diagnostic_period >= 0.05 && diagnostic_period <= 3600))
     return "diagnostic_period: must be in [0.05, 3600] s";
+  if (image_transport != "raw" && image_transport != "compressed")
+    return "image_transport: expected raw or compressed, got '" + image_transport + "'";
   for (char c : frame_prefix) {
     if (!(std::isalnum(static_cast<unsigned char>(c)) || c == '_' || c == '/'))
       return "frame_prefix: only letters, digits, '_' and '/' are allowed";

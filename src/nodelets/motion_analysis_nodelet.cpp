@@ -28,10 +28,10 @@ void MotionAnalysisNodelet::onInit() {
       "motion_data", 10, ros::SubscriberStatusCallback(cb), ros::SubscriberStatusCallback(cb));
   debug_pub_ = it_->advertise("debug_image", 1, image_transport::SubscriberStatusCallback(cb),
                               image_transport::SubscriberStatusCallback(cb));
-  if (config_.ros.always_subscribe) {
-    image_sub_ = it_->subscribe("image", config_.ros.queue_size, &MotionAnalysisNodelet::imageCb, this);
-  }
-  health_.start(nh, pnh, getName(), nh.resolveName("image"), config_.ros.diagnostic_period);
+  if (config_.ros.always_subscribe) subscribeImage();
+  health_.start(nh, pnh, getName(),
+                nh.resolveName("image") + (config_.ros.image_transport == "compressed" ? "/compressed" : ""),
+                config_.ros.diagnostic_period);
   health_.setSubscribed(bool(image_sub_));
 }
 
@@ -40,8 +40,8 @@ void MotionAnalysisNodelet::connectCb() {
   const bool wanted = config_.ros.always_subscribe || motion_pub_.getNumSubscribers() > 0 ||
                       debug_pub_.getNumSubscribers() > 0;
   if (wanted && !image_sub_) {
-    NODELET_DEBUG("subscribing to %s", getNodeHandle().resolveName("image").c_str());
-    image_sub_ = it_->subscribe("image", config_.ros.queue_size, &MotionAnalysisNodelet::imageCb, this);
+    subscribeImage();
+    NODELET_DEBUG("subscribed to %s", image_sub_.topic().c_str());
   } else if (!wanted && image_sub_) {
     NODELET_DEBUG("no subscribers left: unsubscribing from the image");
     image_sub_.shutdown();
@@ -49,26 +49,29 @@ void MotionAnalysisNodelet::connectCb() {
   health_.setSubscribed(bool(image_sub_));
 }
 
-void MotionAnalysisNodelet::imageCb(const sensor_msgs::ImageConstPtr& msg) {
+void MotionAnalysisNodelet::subscribeImage() {
+  image_sub_.subscribe(
+      getNodeHandle(), "image", config_.ros.image_transport, config_.ros.queue_size,
+      [this](const std_msgs::Header& h, const cv::Mat& gray) { imageCb(h, gray); },
+      [this](const std::string& why) {
+        NODELET_WARN_THROTTLE(5.0, "dropping image: %s", why.c_str());
+        health_.noteDropped(why);
+      });
+}
+
+void MotionAnalysisNodelet::imageCb(const std_msgs::Header& header, const cv::Mat& gray) {
   const ros::WallTime started = ros::WallTime::now();
-  cv::Mat gray;
-  std::string error;
-  if (!imageToGray(*msg, &gray, &error)) {
-    NODELET_WARN_THROTTLE(5.0, "dropping image: %s", error.c_str());
-    health_.noteDropped(error);
-    return;
-  }
-  const MotionData md = analyzer_->process(gray, msg->header.stamp.toSec());
+  const MotionData md = analyzer_->process(gray, header.stamp.toSec());
   if (!analyzer_->lastReset().empty() && health_.noteReset(analyzer_->lastReset())) {
-    NODELET_WARN("motion analysis reset at stamp %.6f: %s", msg->header.stamp.toSec(),
+    NODELET_WARN("motion analysis reset at stamp %.6f: %s", header.stamp.toSec(),
                  analyzer_->lastReset().c_str());
   }
   ++frames_;
-  if (motion_pub_.getNumSubscribers() > 0) motion_pub_.publish(toMsg(md, msg->header));
+  if (motion_pub_.getNumSubscribers() > 0) motion_pub_.publish(toMsg(md, header));
   if (debug_pub_.getNumSubscribers() > 0) {
-    debug_pub_.publish(cv_bridge::CvImage(msg->header, "bgr8", drawMotionData(gray, md)).toImageMsg());
+    debug_pub_.publish(cv_bridge::CvImage(header, "bgr8", drawMotionData(gray, md)).toImageMsg());
   }
-  health_.noteFrame(msg->header.stamp, started);
+  health_.noteFrame(header.stamp, started);
 }
 
 }  // namespace imt

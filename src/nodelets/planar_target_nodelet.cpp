@@ -1,7 +1,6 @@
 #include "instant_motion_tracking/ros/planar_target_nodelet.h"
 
 #include "instant_motion_tracking/ros/conversions.h"
-#include "instant_motion_tracking/ros/image_conversion.h"
 #include "instant_motion_tracking/ros/markers.h"
 #include "instant_motion_tracking/ros/params.h"
 
@@ -19,7 +18,6 @@ void PlanarTargetNodelet::onInit() {
   targets_ = std::make_unique<PlanarTargetManager>(config_.pipeline.planar_tracking);
   if (wantImages())
     cache_->setImageBudget(static_cast<size_t>(config_.pipeline.planar_tracking.image_memory_mb * 1024 * 1024));
-  it_ = std::make_unique<image_transport::ImageTransport>(nh);
   tf_ = std::make_unique<tf2_ros::TransformBroadcaster>();
   std::lock_guard<std::mutex> lock(mutex_);
   auto cb = [this](const ros::SingleSubscriberPublisher&) {
@@ -46,7 +44,12 @@ void PlanarTargetNodelet::updateSubscription() {
     motion_sub_ = getNodeHandle().subscribe("motion_data", 10 * config_.ros.queue_size,
                                             &PlanarTargetNodelet::motionCb, this);
     if (wantImages())
-      image_sub_ = it_->subscribe("image", config_.ros.queue_size, &PlanarTargetNodelet::imageCb, this);
+      image_sub_.subscribe(
+          getNodeHandle(), "image", config_.ros.image_transport, config_.ros.queue_size,
+          [this](const std_msgs::Header& h, const cv::Mat& gray) { imageCb(h, gray); },
+          [this](const std::string& why) {
+            NODELET_WARN_THROTTLE(5.0, "image not used for the alignment: %s", why.c_str());
+          });
   } else if (!wanted && motion_sub_) {
     motion_sub_.shutdown();
     image_sub_.shutdown();
@@ -78,16 +81,10 @@ bool PlanarTargetNodelet::wantImages() const {
   return o.refine && o.model == "perspective" && o.image_memory_mb > 0;
 }
 
-void PlanarTargetNodelet::imageCb(const sensor_msgs::ImageConstPtr& msg) {
-  cv::Mat gray;
-  std::string error;
-  if (!imageToGray(*msg, &gray, &error)) {
-    NODELET_WARN_THROTTLE(5.0, "image not used for the alignment: %s", error.c_str());
-    return;
-  }
+void PlanarTargetNodelet::imageCb(const std_msgs::Header& header, const cv::Mat& gray) {
   std::lock_guard<std::mutex> lock(mutex_);
   last_image_ = ros::WallTime::now();
-  const double stamp = msg->header.stamp.toSec();
+  const double stamp = header.stamp.toSec();
   if (!images_.empty() && stamp < images_.rbegin()->first) images_.clear();  // time went back
   images_[stamp] = gray;
   while (images_.size() > 30) images_.erase(images_.begin());  // motion data never came for these

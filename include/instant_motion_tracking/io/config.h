@@ -18,6 +18,7 @@ struct RosShellOptions {
   bool always_subscribe = false;   // subscribe to inputs even without subscribers (e.g. tf-only consumers)
   int queue_size = 5;              // subscriber queue length (frames)
   double diagnostic_period = 1.0;  // s (wall time) between /diagnostics reports
+  std::string image_transport = "raw";  // raw (sensor_msgs/Image) | compressed (<image>/compressed)
 
   template <class V>
   void visit(V& v) {
@@ -26,6 +27,7 @@ struct RosShellOptions {
     v("always_subscribe", always_subscribe, "subscribe to inputs even without subscribers");
     v("queue_size", queue_size, "subscriber queue length (frames)");
     v("diagnostic_period", diagnostic_period, "s (wall time) between /diagnostics reports");
+    v("image_transport", image_transport, "raw (sensor_msgs/Image) | compressed (<image>/compressed)");
   }
   std::string validate() const;
 };

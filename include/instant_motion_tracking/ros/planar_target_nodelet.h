@@ -4,7 +4,7 @@
 // a rigid 6DoF pose per frame, so the four corners do not drift.
 // Subscribes:
 //   motion_data          instant_motion_tracking/MotionData (from MotionAnalysisNodelet)
-//   image                sensor_msgs/Image via image_transport (~image_transport), for the
+//   image                sensor_msgs/Image (or image/compressed, ~image_transport), for the
 //                        appearance alignment (~planar_tracking/refine); each motion_data
 //                        waits for its image (at most two further frames) and is
 //                        tracked on features alone when it does not come
@@ -17,7 +17,7 @@
 //   add_planar_target    AddPlanarTarget: corners TL, TR, BR, BL at a cached stamp (0 = latest) + size
 //   remove_planar_target RemoveRegion
 // Parameters (private namespace; config/default.yaml): cache_seconds, default_hfov_deg,
-//   planar_tracking/*, publish_tf, frame_prefix, queue_size, always_subscribe, diagnostic_period.
+//   planar_tracking/*, publish_tf, frame_prefix, queue_size, always_subscribe, diagnostic_period, image_transport.
 // Diagnostics (/diagnostics, ros/nodelet_health.h): input rate, processing time and
 // delay after the image stamp, planar targets by status.
 // motion_data (and image) are subscribed while an output has a subscriber, a
@@ -30,9 +30,9 @@
 #include "instant_motion_tracking/RemoveRegion.h"
 #include "instant_motion_tracking/core/planar_target_manager.h"
 #include "instant_motion_tracking/io/config.h"
+#include "instant_motion_tracking/ros/image_input.h"
 #include "instant_motion_tracking/ros/nodelet_health.h"
 
-#include <image_transport/image_transport.h>
 #include <nodelet/nodelet.h>
 #include <ros/ros.h>
 #include <sensor_msgs/CameraInfo.h>
@@ -52,7 +52,7 @@ class PlanarTargetNodelet : public nodelet::Nodelet {
  private:
   void updateSubscription();  // call with mutex_ held
   void motionCb(const instant_motion_tracking::MotionDataConstPtr& msg);
-  void imageCb(const sensor_msgs::ImageConstPtr& msg);
+  void imageCb(const std_msgs::Header& header, const cv::Mat& gray);
   void flush(bool all);  // tracks the motion data whose image came or will not; mutex_ held
   void track(const instant_motion_tracking::MotionData& msg, const ros::WallTime& started);
   bool wantImages() const;
@@ -68,8 +68,7 @@ class PlanarTargetNodelet : public nodelet::Nodelet {
   std::unique_ptr<PlanarTargetManager> targets_;
   CameraIntrinsics info_;
   ros::Subscriber motion_sub_, info_sub_;
-  std::unique_ptr<image_transport::ImageTransport> it_;
-  image_transport::Subscriber image_sub_;
+  ImageInput image_sub_;
   std::map<double, cv::Mat> images_;  // gray frames by stamp, waiting for their motion data
   struct Pending {
     instant_motion_tracking::MotionDataConstPtr msg;

@@ -1,5 +1,8 @@
 #include "instant_motion_tracking/core/anchor.h"
 
+#include <algorithm>
+#include <cmath>
+
 namespace imt {
 
 Eigen::Matrix3d anchorOrientation(const Eigen::Matrix3d& R_world_cam_at_placement) {
@@ -16,6 +19,13 @@ Eigen::Matrix3d anchorOrientation(const Eigen::Matrix3d& R_world_cam_at_placemen
   R.col(1) = z.cross(x);
   R.col(2) = z;
   return R;
+}
+
+double patchSizeFactor(const cv::Point2d& pixel, const CameraIntrinsics& k, const Eigen::Vector3d* normal_cam) {
+  const Eigen::Vector3d d = Eigen::Vector3d((pixel.x - k.cx) / k.fx, (pixel.y - k.cy) / k.fy, 1.0).normalized();
+  const double dz = std::max(d.z(), 0.1);
+  const double nd = normal_cam ? std::max(std::abs(normal_cam->normalized().dot(d)), 0.1) : 1.0;
+  return std::sqrt(nd) / std::pow(dz, 1.5);
 }
 
 Eigen::Isometry3d anchorPose(const cv::Point2d& pixel, double scale_ratio, double depth0,

@@ -66,6 +66,8 @@ std::string AnchorOptions::validate() const {
     return bad("imu_wait_seconds", "must be in [0, 10]", imu_wait_seconds);
   if (!(imu_reset_seconds > 0 && imu_reset_seconds <= 3600))
     return bad("imu_reset_seconds", "must be in (0, 3600]", imu_reset_seconds);
+  if (surface != "horizontal" && surface != "facing")
+    return bad("surface", "must be horizontal or facing", "\"" + surface + "\"");
   Eigen::Quaterniond q;
   if (!rotation_cam_imu.empty() && !rotationCamImu(&q))
     return bad("rotation_cam_imu", "must be empty or \"qx qy qz qw\", a unit quaternion",
@@ -171,6 +173,7 @@ bool AnchorManager::add(uint32_t id, double stamp, const cv::Point2d& uv, double
   a.stamp = regions_->cache().at(seq).stamp;
   a.depth = depth > 0 ? depth : options_.default_depth;
   a.side = options_.region_size * std::min(size.width, size.height);
+  a.uv0 = uv;
   const cv::Rect2d box(uv.x - a.side / 2, uv.y - a.side / 2, a.side, a.side);
   // A region id the region manager does not hold yet (ids of removed anchors are not reused).
   uint32_t region_id = 0;
@@ -227,8 +230,18 @@ AnchorState AnchorManager::stateOf(Anchor& a, const RegionState& r, double stamp
   const bool imu_ok = a.bound && imu_.R_world_cam(stamp, &R_wc);
   if (!imu_ok) R_wc = a.R_world_cam0;
   const bool estimate = r.status != RegionStatus::kLost && r.box.width > 0;
-  s.T_cam_anchor = anchorPose(s.pixel, estimate ? a.side / r.box.width : 1.0, a.depth, intrinsics(),
-                              R_wc, a.R_world_anchor);
+  double scale_ratio = 1.0;
+  if (estimate) {
+    // The surface's normal (world up) in the camera at placement and now,
+    // when the IMU gives both; else the patch is taken as facing the camera.
+    const CameraIntrinsics K = intrinsics();
+    const bool tilt = options_.surface == "horizontal" && a.bound && imu_ok;
+    const Eigen::Vector3d up0 = a.R_world_cam0.transpose() * Eigen::Vector3d::UnitZ();
+    const Eigen::Vector3d up = R_wc.transpose() * Eigen::Vector3d::UnitZ();
+    scale_ratio = a.side / r.box.width * patchSizeFactor(s.pixel, K, tilt ? &up : nullptr) /
+                  patchSizeFactor(a.uv0, K, tilt ? &up0 : nullptr);
+  }
+  s.T_cam_anchor = anchorPose(s.pixel, scale_ratio, a.depth, intrinsics(), R_wc, a.R_world_anchor);
   if (!estimate) {
     s.status = AnchorStatus::kLost;
     s.reason = r.reason.empty() ? "its region is lost" : "region lost: " + r.reason;

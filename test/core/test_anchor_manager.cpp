@@ -11,6 +11,8 @@
 
 #include <gtest/gtest.h>
 
+#include <cstdlib>
+
 #include <algorithm>
 #include <cstdio>
 
@@ -315,6 +317,11 @@ void runWalk(WalkFigures* out) {
         out->rot.push_back(angleDeg(s.T_cam_anchor.linear(), a.T_cam_anchor.linear()));
         out->range.push_back(std::abs(
             s.T_cam_anchor.translation().norm() / a.T_cam_anchor.translation().norm() - 1));
+        if (std::getenv("IMT_TEST_TRACE"))  // per-frame trace for tuning
+          std::printf("%d est %.4f true %.4f nd %.4f cz %.4f\n", k, s.T_cam_anchor.translation().norm(),
+                      a.T_cam_anchor.translation().norm(),
+                      std::abs(s.T_cam_anchor.linear().col(2).dot(s.T_cam_anchor.translation().normalized())),
+                      s.T_cam_anchor.translation().normalized().z());
       }
     }
   }
@@ -329,8 +336,10 @@ void runWalk(WalkFigures* out) {
 }
 
 // The bars: pixel median <= 3 px in view, <= 15 px over the first
-// second back in view; orientation median <= 1 degree. The anchor placed in
-// the past is held to the same orientation bar. Every frame is answered.
+// second back in view; orientation median <= 1 degree; relative range error
+// median <= 5% (measured 4.3% with the horizontal-surface correction, 18.9%
+// from the region's scale alone). The anchor placed in the past is held to
+// the same orientation bar. Every frame is answered.
 TEST(AnchorManager, FloorWalkAgainstGroundTruth) {
   WalkFigures f;
   runWalk(&f);
@@ -343,6 +352,7 @@ TEST(AnchorManager, FloorWalkAgainstGroundTruth) {
   EXPECT_LE(median(f.px_after_return), 15.0);
   EXPECT_LE(median(f.rot), 1.0);
   EXPECT_LE(median(f.rot_late), 1.0);
+  EXPECT_LE(median(f.range), 0.05);
   // Far outside the image the region is out of view: every such frame says so.
   ASSERT_GT(f.out_frames, 0);
   EXPECT_EQ(f.out_status, f.out_frames);

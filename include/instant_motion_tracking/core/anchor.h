@@ -3,7 +3,9 @@
 //
 // The anchor point lies along the ray through the region's current centre
 // pixel, at depth0 * width0 / width (the user sets the initial depth; the
-// region's scale change gives the relative depth). Its frame (interface spec)
+// region's scale change gives the relative depth), corrected by
+// patchSizeFactor() for where the region sits in the image and how obliquely
+// its surface is seen. Its frame (interface spec)
 // has z up (against gravity) and x the camera's viewing direction at
 // placement, levelled to horizontal; y = z cross x. In the camera optical
 // frame: R_cam_anchor = R_world_cam(now)^T * R_world_anchor.
@@ -24,6 +26,15 @@ namespace imt {
 // camera's optical axis at placement projected on the horizontal plane
 // (the camera's down axis when it looks straight down or up).
 Eigen::Matrix3d anchorOrientation(const Eigen::Matrix3d& R_world_cam_at_placement);
+
+// How large a small surface patch looks at `pixel` relative to its range:
+// its image size is proportional to this / range, namely sqrt(|n . d|) / d_z^1.5
+// for the unit ray d through the pixel and the patch's unit normal n (camera
+// frame; image area = f^2 area |n . d| / (range^2 d_z^3)). Without a normal
+// the patch faces the camera (n . d = 1). |n . d| and d_z are floored at 0.1
+// (grazing views, rays near 90 degrees off-axis).
+double patchSizeFactor(const cv::Point2d& pixel, const CameraIntrinsics& k,
+                       const Eigen::Vector3d* normal_cam = nullptr);
 
 // T_cam_anchor for the anchor seen at `pixel` (our pixel convention) with
 // relative scale `scale_ratio` = width0 / width (> 0), initial distance

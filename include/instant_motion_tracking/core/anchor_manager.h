@@ -7,7 +7,9 @@
 // (ImuOrientation, owned here). Its pose (core/anchor.h): the point lies along
 // the ray through the region's centre at depth * initial side / current side;
 // its frame has z up and x the camera's levelled viewing direction at
-// placement. The anchor is tracked from the very frame it is placed.
+// placement. The scale change is corrected (patchSizeFactor) for the region's
+// place in the image and, on a horizontal surface (anchors.surface), for the
+// changing obliqueness of the view. The anchor is tracked from the very frame it is placed.
 //
 // The regions live in a RegionManager owned by the caller (the nodelet's
 // own, or the pipeline's in track_bag), under region ids >= kAnchorRegionBase
@@ -58,6 +60,9 @@ struct AnchorOptions {
   double imu_reset_seconds = 1.0;
   // "qx qy qz qw": the IMU frame in the camera optical frame, overriding tf; "" = from tf
   std::string rotation_cam_imu;
+  // the surface anchors are placed on, for the range from the region's scale:
+  // horizontal (floor, table; the paper's assumption; its tilt from the IMU) | facing (the camera)
+  std::string surface = "horizontal";
 
   template <class V>
   void visit(V& v) {
@@ -70,6 +75,7 @@ struct AnchorOptions {
       "s; an IMU stamp this far behind the newest resets the orientation (bag loop)");
     v("rotation_cam_imu", rotation_cam_imu,
       "\"qx qy qz qw\": the IMU frame in the camera optical frame, overriding tf; \"\" = from tf");
+    v("surface", surface, "horizontal (floor, table; tilt from the IMU) | facing (the camera): corrects the range");
   }
   // Empty when usable, else "anchors.<field>: must be ... (got ...)".
   std::string validate() const;
@@ -159,6 +165,7 @@ class AnchorManager {
     double stamp = 0;    // placement frame
     double depth = 1.0;  // m along the tap's ray at placement
     double side = 0;     // px, initial region side
+    cv::Point2d uv0;     // px, the tapped pixel
     bool bound = false;  // R_world_anchor known from the IMU
     Eigen::Matrix3d R_world_anchor = Eigen::Matrix3d::Identity();
     // The camera at binding (or the image-up stand-in).

@@ -6,6 +6,7 @@
 #include "instant_motion_tracking/ros/params.h"
 
 #include <cv_bridge/cv_bridge.h>
+#include <image_transport/camera_common.h>
 #include <pluginlib/class_list_macros.hpp>
 
 namespace imt {
@@ -29,10 +30,17 @@ void MotionAnalysisNodelet::onInit() {
   debug_pub_ = it_->advertise("debug_image", 1, image_transport::SubscriberStatusCallback(cb),
                               image_transport::SubscriberStatusCallback(cb));
   if (config_.ros.always_subscribe) {
-    image_sub_ = it_->subscribe("image", config_.ros.queue_size, &MotionAnalysisNodelet::imageCb, this);
+    image_sub_ =
+        it_->subscribe("image", config_.ros.queue_size, &MotionAnalysisNodelet::imageCb, this);
   }
   health_.start(nh, pnh, getName(), nh.resolveName("image"), config_.ros.diagnostic_period);
   health_.setSubscribed(bool(image_sub_));
+  // Publishes debug frames whose trackers stay silent (the last frame of a bag, a paused player).
+  debug_timer_ = nh.createWallTimer(ros::WallDuration(kDebugWaitSeconds / 2),
+                                    [this](const ros::WallTimerEvent&) {
+                                      std::lock_guard<std::mutex> l(debug_mutex_);
+                                      publishDebug(false);
+                                    });
 }
 
 void MotionAnalysisNodelet::connectCb() {
@@ -41,12 +49,86 @@ void MotionAnalysisNodelet::connectCb() {
                       debug_pub_.getNumSubscribers() > 0;
   if (wanted && !image_sub_) {
     NODELET_DEBUG("subscribing to %s", getNodeHandle().resolveName("image").c_str());
-    image_sub_ = it_->subscribe("image", config_.ros.queue_size, &MotionAnalysisNodelet::imageCb, this);
+    image_sub_ =
+        it_->subscribe("image", config_.ros.queue_size, &MotionAnalysisNodelet::imageCb, this);
   } else if (!wanted && image_sub_) {
     NODELET_DEBUG("no subscribers left: unsubscribing from the image");
     image_sub_.shutdown();
   }
   health_.setSubscribed(bool(image_sub_));
+  updateOverlaySubscriptions();
+}
+
+void MotionAnalysisNodelet::updateOverlaySubscriptions() {
+  ros::NodeHandle& nh = getNodeHandle();
+  std::lock_guard<std::mutex> l(debug_mutex_);
+  const bool wanted = debug_pub_.getNumSubscribers() > 0;
+  if (wanted && !regions_sub_) {
+    const uint32_t queue = 10 * config_.ros.queue_size;
+    regions_sub_ = nh.subscribe("regions", queue, &MotionAnalysisNodelet::regionsCb, this);
+    targets_sub_ = nh.subscribe("planar_targets", queue, &MotionAnalysisNodelet::targetsCb, this);
+    anchors_sub_ = nh.subscribe("anchors", queue, &MotionAnalysisNodelet::anchorsCb, this);
+    info_sub_ = nh.subscribe(image_transport::getCameraInfoTopic(nh.resolveName("image")), 1,
+                             &MotionAnalysisNodelet::infoCb, this);
+  } else if (!wanted && regions_sub_) {
+    for (ros::Subscriber* s : {&regions_sub_, &targets_sub_, &anchors_sub_, &info_sub_})
+      s->shutdown();
+    debug_frames_.clear();
+    overlays_.clear();
+  }
+}
+
+void MotionAnalysisNodelet::regionsCb(
+    const instant_motion_tracking::TrackedRegionArrayConstPtr& msg) {
+  std::lock_guard<std::mutex> l(debug_mutex_);
+  overlays_.addRegions(msg->header.stamp.toSec(), fromMsg(*msg));
+  publishDebug(false);
+}
+
+void MotionAnalysisNodelet::targetsCb(
+    const instant_motion_tracking::PlanarTargetArrayConstPtr& msg) {
+  std::lock_guard<std::mutex> l(debug_mutex_);
+  overlays_.addTargets(msg->header.stamp.toSec(), fromMsg(*msg));
+  publishDebug(false);
+}
+
+void MotionAnalysisNodelet::anchorsCb(const instant_motion_tracking::AnchorArrayConstPtr& msg) {
+  std::lock_guard<std::mutex> l(debug_mutex_);
+  overlays_.addAnchors(msg->header.stamp.toSec(), fromMsg(*msg));
+  publishDebug(false);
+}
+
+void MotionAnalysisNodelet::infoCb(const sensor_msgs::CameraInfoConstPtr& msg) {
+  CameraIntrinsics k;
+  std::string why;
+  std::lock_guard<std::mutex> l(debug_mutex_);
+  if (fromCameraInfo(*msg, &k, &why)) {
+    intrinsics_ = k;
+  } else {
+    NODELET_WARN_THROTTLE(10.0, "ignoring camera_info: %s", why.c_str());
+  }
+}
+
+void MotionAnalysisNodelet::publishDebug(bool all) {
+  const ros::WallTime now = ros::WallTime::now();
+  while (!debug_frames_.empty()) {
+    DebugFrame& f = debug_frames_.front();
+    const double stamp = f.header.stamp.toSec();
+    const bool waited = (now - f.analysed).toSec() >= kDebugWaitSeconds;
+    if (!all && !waited && debug_frames_.size() <= kMaxDebugFrames && !overlays_.complete(stamp))
+      break;
+    if (debug_pub_.getNumSubscribers() > 0) {
+      cv::Mat bgr = drawMotionData(f.gray, f.md);
+      DebugOverlay overlay = overlays_.select(stamp);
+      overlay.intrinsics = intrinsics_;
+      if (!overlay.intrinsics.valid || overlay.intrinsics.width != f.md.width)
+        overlay.intrinsics = CameraIntrinsics::fromFieldOfView(f.md.width, f.md.height,
+                                                               config_.pipeline.default_hfov_deg);
+      drawOverlay(&bgr, overlay);
+      debug_pub_.publish(cv_bridge::CvImage(f.header, "bgr8", bgr).toImageMsg());
+    }
+    debug_frames_.pop_front();
+  }
 }
 
 void MotionAnalysisNodelet::imageCb(const sensor_msgs::ImageConstPtr& msg) {
@@ -66,7 +148,15 @@ void MotionAnalysisNodelet::imageCb(const sensor_msgs::ImageConstPtr& msg) {
   ++frames_;
   if (motion_pub_.getNumSubscribers() > 0) motion_pub_.publish(toMsg(md, msg->header));
   if (debug_pub_.getNumSubscribers() > 0) {
-    debug_pub_.publish(cv_bridge::CvImage(msg->header, "bgr8", drawMotionData(gray, md)).toImageMsg());
+    std::lock_guard<std::mutex> l(debug_mutex_);
+    const double stamp = msg->header.stamp.toSec();
+    if (stamp < last_stamp_) {  // a looping bag: the trackers start over too
+      publishDebug(true);
+      overlays_.clear();
+    }
+    last_stamp_ = stamp;
+    debug_frames_.push_back({gray, md, msg->header, ros::WallTime::now()});
+    publishDebug(false);
   }
   health_.noteFrame(msg->header.stamp, started);
 }

@@ -77,7 +77,7 @@ void drawTarget(cv::Mat* out, const PlanarTargetState& s, const CameraIntrinsics
   drawAxes(out, k, s.T_cam_target, 0.5 * size);
   std::string text = "P" + std::to_string(s.id);
   if (!tracked) text += std::string(" ") + targetStatusName(s.status);
-  label(out, text, quad[0] + cv::Point(6, -6), colour);
+  label(out, text, quad[3] + cv::Point(0, 16), colour);  // below BL: region labels sit above boxes
 }
 
 void drawAnchor(cv::Mat* out, const AnchorState& s, const CameraIntrinsics& k) {

@@ -27,7 +27,9 @@ void MotionAnalysisNodelet::onInit() {
   auto cb = [this](const auto&) { connectCb(); };
   motion_pub_ = nh.advertise<instant_motion_tracking::MotionData>(
       "motion_data", 10, ros::SubscriberStatusCallback(cb), ros::SubscriberStatusCallback(cb));
-  debug_pub_ = it_->advertise("debug_image", 1, image_transport::SubscriberStatusCallback(cb),
+  // Queue: the frames that waited for the trackers may go out together.
+  debug_pub_ = it_->advertise("debug_image", kMaxDebugFrames + 2,
+                              image_transport::SubscriberStatusCallback(cb),
                               image_transport::SubscriberStatusCallback(cb));
   if (config_.ros.always_subscribe) {
     image_sub_ =

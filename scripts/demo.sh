@@ -72,7 +72,7 @@ fi
 # The master and the launch run in their own process groups (setsid), with
 # ROS_MASTER_URI set for them only; cleanup stops each group: SIGINT (roslaunch
 # and roscore shut their nodes down), then SIGTERM, then SIGKILL.
-pids=()
+pids=() live_pid=""
 stop_group() {
   local pid=$1 i
   kill -0 "$pid" 2>/dev/null || return 0
@@ -85,6 +85,11 @@ stop_group() {
 }
 cleanup() {
   local i
+  if [ -n "$live_pid" ] && kill -0 "$live_pid" 2>/dev/null; then
+    kill -TERM "$live_pid" 2>/dev/null || true
+    wait "$live_pid" 2>/dev/null || true
+  fi
+  live_pid=""
   for ((i = ${#pids[@]} - 1; i >= 0; i--)); do stop_group "${pids[i]}"; done
   pids=()
 }
@@ -117,9 +122,13 @@ if [ "$live" = true ]; then
   pids+=($!)
 
   imt_log "live graph: adding the items through the services and recording the outputs"
-  status=0
+  # In the background so that a signal to this script is handled at once (wait is interruptible).
   "${child_env[@]}" /usr/bin/python3 "$IMT_ROOT/scripts/demo_live.py" --truth "$out/${preset}_truth.json" \
-    --init "$out/${preset}_init.yaml" --out "$live_dir" --rate "$rate" || status=$?
+    --init "$out/${preset}_init.yaml" --out "$live_dir" --rate "$rate" &
+  live_pid=$!
+  status=0
+  wait "$live_pid" || status=$?
+  live_pid=""
   if [ "$status" -ne 0 ]; then
     kill -0 "${pids[1]}" 2>/dev/null || echo "demo.sh: roslaunch exited early:" >&2
     tail -n 15 "$live_dir/logs/roslaunch.out" | sed 's/^/  roslaunch: /' >&2

@@ -250,6 +250,7 @@ class Recorder:
         """Keeps the debug images of these stamps (from now on)."""
         with self.lock:
             self.strip_stamps = {round(s, 6) for s in stamps}
+            self.strip = {k: v for k, v in self.strip.items() if k in self.strip_stamps}
 
     def on_input(self, m):
         now = time.monotonic()

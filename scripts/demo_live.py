@@ -211,6 +211,38 @@ def score(truth, plan, rec):
     return result
 
 
+REGION_BGR = (0, 220, 255)  # core/debug_draw.h kRegionColour, drawn first ...
+TARGET_BGR = (255, 0, 255)  # ... kPlanarTargetColour, drawn over it
+
+
+def overlay_check(images, regions):
+    """How many (frame, region) pairs of the debug images have the region's
+    box drawn where the regions topic says it is at that frame's stamp: at
+    least two of its four edge midpoints in the region colour (another item
+    may be drawn over one edge; a box under a planar target's quad is not
+    checked). Returns (checked, drawn, misses: [stamp, id, edges hit])."""
+    by_stamp = {round(st, 6): states for st, states in regions}
+    checked = drawn = 0
+    misses = []
+    for stamp, img in images.items():
+        h, w = img.shape[:2]
+        for s in by_stamp.get(stamp, []):
+            x, y, bw, bh = s["box"]
+            if s["status"] != "tracked" or x < 2 or y < 2 or x + bw > w - 2 or y + bh > h - 2:
+                continue
+            # Pixel (column, row) holding each edge's midpoint (our convention: centres at +0.5).
+            mids = [(x, y + bh / 2), (x + bw - 1, y + bh / 2), (x + bw / 2, y), (x + bw / 2, y + bh - 1)]
+            colours = [tuple(img[int(round(py)), int(round(px))]) for px, py in mids]
+            if colours.count(TARGET_BGR) >= 2:
+                continue
+            hits = colours.count(REGION_BGR)
+            checked += 1
+            drawn += hits >= 2
+            if hits < 2:
+                misses.append([stamp, s["id"], hits])
+    return checked, drawn, misses
+
+
 # --- the live part (rospy) ---------------------------------------------------
 
 class Recorder:
@@ -571,6 +603,10 @@ def format_report(r, out):
         lines += ["", "Processing time per frame (/diagnostics, mean over the reporting periods):",
                   "  " + ", ".join("%s %.2f ms" % (name.split(":")[0], d["processing_ms"])
                                    for name, d in r["diagnostics"].items() if d["processing_ms"] is not None)]
+    if "overlay_check" in r:
+        o = r["overlay_check"]
+        lines += ["", "debug_image overlay: %d of %d tracked regions in the strip's frames drawn where the regions "
+                  "topic has them at the frame's stamp" % (o["drawn_at_their_stamp"], o["regions_checked"])]
     lines += ["", "Files in %s: %s" % (out, " ".join(sorted(f for f in os.listdir(out) if "." in f)))]
     return "\n".join(lines) + "\n"
 
@@ -597,6 +633,8 @@ def main():
                             % len(rec.data["debug_image"]))
         report = summarize(truth, plan, rec, added, seconds, args)
         report["strip_frames"] = len(strip)
+        checked, drawn, misses = overlay_check(rec.strip, rec.data["regions"])
+        report["overlay_check"] = {"regions_checked": checked, "drawn_at_their_stamp": drawn, "misses": misses}
         report["video"] = rec.video_path and os.path.basename(rec.video_path)
         with open(os.path.join(args.out, "report.json"), "w") as f:
             json.dump(report, f, indent=1)

@@ -91,6 +91,12 @@ def check(root, out):
             magenta = np.all(tile == (255, 0, 255), axis=2).sum()
             if yellow < 500 or magenta < 100:
                 problems.append("strip tile %d: %d region-box and %d quad pixels (no overlay?)" % (i, yellow, magenta))
+    # ... and each tracked region's box drawn at the place the regions topic
+    # gives for the debug image's own stamp (the nodelet waits for the
+    # trackers' states of each frame); one frame late would miss moving cards.
+    o = r.get("overlay_check", {})
+    if o.get("regions_checked", 0) < 10 or o["drawn_at_their_stamp"] < 0.9 * o["regions_checked"]:
+        problems.append("overlay at the frame's stamp: %s" % o)
     video = [f for f in os.listdir(live) if f.startswith("debug_image.")]
     if not video or os.path.getsize(os.path.join(live, video[0])) < 10000:
         problems.append("no debug_image video")

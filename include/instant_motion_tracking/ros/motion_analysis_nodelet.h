@@ -12,9 +12,9 @@
 // Subscribes for debug_image only (while it has a subscriber):
 //   regions, planar_targets, anchors   the trackers' outputs; a frame's debug image waits
 //                             for the states of its stamp from every tracker heard in the
-//                             last 0.5 s, at most kDebugWaitSeconds of wall time (else it is
-//                             drawn with the latest states, not older than 0.5 s)
-//   <image>/../camera_info    intrinsics for the 3D axes (without it, ~default_hfov_deg)
+//                             last 0.5 s, at most kDebugWaitSeconds (0.25 s) of wall time (else
+//                             it is drawn with the latest states, not older than 0.5 s)
+//   camera_info, sibling of image   intrinsics for the 3D axes (without it, ~default_hfov_deg)
 // Parameters (private namespace, documented in config/default.yaml):
 //   ~motion_analysis/*        MotionAnalysisOptions
 //   ~queue_size, ~always_subscribe, ~diagnostic_period, ~default_hfov_deg

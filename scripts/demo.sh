@@ -1,40 +1,153 @@
 #!/usr/bin/env bash
-# Sets up (apt-get what is missing, build in _build/) and runs the main job on
-# a bundled default: a seeded synthetic scene ("cards": a textured wall, moving
-# cards, a featureless patch; camera motion; IMU) is rendered into a rosbag
-# with make_scene, track_bag runs the whole pipeline on it, and the results
-# are scored against the scene's ground truth.
-# Options: --preset NAME (default cards), --duration S (default 10), --out DIR (default demo_output).
+# Sets up (apt-get what is missing, build in _build/) and runs the demo on a
+# bundled default: a seeded synthetic scene ("cards": a textured wall, moving
+# cards, a static textured patch, a featureless patch; camera motion; IMU) is
+# rendered into a rosbag with make_scene, then
+#  1. track_bag runs the whole pipeline on it offline and the CSVs are scored
+#     against the scene's ground truth (scripts/evaluate.py);
+#  2. the live graph runs on it: roscore on a free port, launch/replay.launch
+#     (every nodelet, rosbag play on sim time), regions, a planar target and an
+#     anchor added through the services, the outputs recorded and scored by
+#     scripts/demo_live.py into OUT/live/ (report.txt, strip.png, debug_image.mp4).
+# Options: --preset NAME (default cards), --duration S (default 10), --out DIR (default demo_output),
+#   --rate R (playback rate, default 1), --rviz (also open rviz; needs a display),
+#   --live-only / --offline-only (one part only), --no-build (use the build in IMT_BUILD_DIR as is).
+# Exits non-zero with a message naming the failed step; every process it started is stopped on exit.
 set -euo pipefail
-preset=cards duration=10 out=""
+preset=cards duration=10 out="" rate=1.0 rviz=false live=true offline=true build=true
 while [ $# -gt 0 ]; do
   case "$1" in
     --preset) preset=$2; shift 2 ;;
     --duration) duration=$2; shift 2 ;;
     --out) out=$2; shift 2 ;;
-    -h|--help) sed -n '2,6p' "$0"; exit 0 ;;
+    --rate) rate=$2; shift 2 ;;
+    --rviz) rviz=true; shift ;;
+    --live-only) offline=false; shift ;;
+    --offline-only) live=false; shift ;;
+    --no-build) build=false; shift ;;
+    -h|--help) sed -n '2,16p' "$0"; exit 0 ;;
     *) echo "demo.sh: unknown option '$1' (see --help)" >&2; exit 2 ;;
   esac
 done
+if [ "$rviz" = true ] && [ -z "${DISPLAY:-}" ]; then
+  echo "demo.sh: --rviz needs a display (DISPLAY is not set); run without --rviz, or under xvfb-run" >&2
+  exit 2
+fi
 source "$(dirname "$0")/setup.sh"
-imt_install
-imt_env
-imt_build all
+if [ "$build" = true ]; then
+  imt_install
+  imt_env
+  imt_build all
+else
+  imt_env
+  [ -f "$IMT_BUILD_DIR/devel/setup.bash" ] ||
+    { echo "demo.sh: --no-build: no build in $IMT_BUILD_DIR (set IMT_BUILD_DIR)" >&2; exit 2; }
+  set +u
+  # shellcheck disable=SC1091
+  source "$IMT_BUILD_DIR/devel/setup.bash"
+  set -u
+fi
 out=${out:-$IMT_ROOT/demo_output}
 mkdir -p "$out"
+out=$(cd "$out" && pwd)  # roslaunch needs an absolute bag path
+
+fail() { echo "demo.sh: $*" >&2; exit 1; }
 
 imt_log "rendering the '$preset' scene ($duration s) into $out/$preset.bag"
-rosrun instant_motion_tracking make_scene --preset "$preset" --duration "$duration" --seed 1 \
-  --out "$out/$preset.bag" --truth "$out/${preset}_truth.json" --init "$out/${preset}_init.yaml"
-imt_log "running track_bag on it"
-rosrun instant_motion_tracking track_bag --bag "$out/$preset.bag" --init "$out/${preset}_init.yaml" \
-  --out-dir "$out/tracks" --out-bag "$out/${preset}_tracked.bag"
+rosrun instant_motion_tracking make_scene --preset "$preset" --duration "$duration" --seed 1 --quiet \
+  --out "$out/$preset.bag" --truth "$out/${preset}_truth.json" --init "$out/${preset}_init.yaml" ||
+  fail "make_scene failed"
+
+if [ "$offline" = true ]; then
+  imt_log "running track_bag on it (offline, scored)"
+  rosrun instant_motion_tracking track_bag --bag "$out/$preset.bag" --init "$out/${preset}_init.yaml" \
+    --out-dir "$out/tracks" --out-bag "$out/${preset}_tracked.bag" --quiet || fail "track_bag failed"
+  echo
+  echo "Offline (track_bag) accuracy against the scene's ground truth (scripts/evaluate.py):"
+  /usr/bin/python3 "$IMT_ROOT/scripts/evaluate.py" "$out/${preset}_truth.json" "$out/tracks" | sed 's/^/  /'
+  echo
+fi
+
+# --- the live graph ------------------------------------------------------------
+# The master and the launch run in their own process groups (setsid), with
+# ROS_MASTER_URI set for them only; cleanup stops each group: SIGINT (roslaunch
+# and roscore shut their nodes down), then SIGTERM, then SIGKILL.
+pids=() live_pid=""
+stop_group() {
+  local pid=$1 i
+  kill -0 "$pid" 2>/dev/null || return 0
+  kill -INT -- "-$pid" 2>/dev/null || true
+  for i in $(seq 50); do kill -0 "$pid" 2>/dev/null || break; sleep 0.2; done
+  kill -TERM -- "-$pid" 2>/dev/null || true
+  for i in $(seq 25); do kill -0 "$pid" 2>/dev/null || break; sleep 0.2; done
+  kill -KILL -- "-$pid" 2>/dev/null || true
+  wait "$pid" 2>/dev/null || true
+}
+cleanup() {
+  local i
+  if [ -n "$live_pid" ] && kill -0 "$live_pid" 2>/dev/null; then
+    kill -TERM "$live_pid" 2>/dev/null || true
+    wait "$live_pid" 2>/dev/null || true
+  fi
+  live_pid=""
+  for ((i = ${#pids[@]} - 1; i >= 0; i--)); do stop_group "${pids[i]}"; done
+  pids=()
+}
+trap cleanup EXIT
+trap 'exit 130' INT
+trap 'exit 143' TERM
+
+if [ "$live" = true ]; then
+  live_dir=$out/live
+  rm -rf "$live_dir"
+  mkdir -p "$live_dir/logs"
+  port=$(/usr/bin/python3 -c 'import socket; s = socket.socket(); s.bind(("localhost", 0)); print(s.getsockname()[1])')
+  master=http://localhost:$port
+  child_env=(env ROS_MASTER_URI="$master" ROS_LOG_DIR="$live_dir/logs")
+  imt_log "live graph: roscore on port $port (logs: $live_dir/logs)"
+  setsid "${child_env[@]}" roscore -p "$port" >"$live_dir/logs/roscore.out" 2>&1 &
+  pids+=($!)
+  for _ in $(seq 100); do
+    "${child_env[@]}" /usr/bin/python3 -c 'import rosgraph, sys; sys.exit(not rosgraph.is_master_online())' \
+      2>/dev/null && break
+    kill -0 "${pids[0]}" 2>/dev/null || fail "roscore exited: $(tail -n 3 "$live_dir/logs/roscore.out")"
+    sleep 0.2
+  done
+  "${child_env[@]}" /usr/bin/python3 -c 'import rosgraph, sys; sys.exit(not rosgraph.is_master_online())' ||
+    fail "roscore did not come up on port $port within 20 s (see $live_dir/logs/roscore.out)"
+
+  imt_log "live graph: roslaunch replay.launch (paused; rviz:=$rviz, rate $rate)"
+  setsid "${child_env[@]}" roslaunch instant_motion_tracking replay.launch bag:="$out/$preset.bag" \
+    rviz:="$rviz" paused:=true delay:=0 rate:="$rate" >"$live_dir/logs/roslaunch.out" 2>&1 &
+  pids+=($!)
+
+  imt_log "live graph: adding the items through the services and recording the outputs"
+  # In the background so that a signal to this script is handled at once (wait is interruptible).
+  "${child_env[@]}" /usr/bin/python3 "$IMT_ROOT/scripts/demo_live.py" --truth "$out/${preset}_truth.json" \
+    --init "$out/${preset}_init.yaml" --out "$live_dir" --rate "$rate" &
+  live_pid=$!
+  status=0
+  wait "$live_pid" || status=$?
+  live_pid=""
+  if [ "$status" -ne 0 ]; then
+    kill -0 "${pids[1]}" 2>/dev/null || echo "demo.sh: roslaunch exited early:" >&2
+    tail -n 15 "$live_dir/logs/roslaunch.out" | sed 's/^/  roslaunch: /' >&2
+    fail "the live part failed (exit $status; logs in $live_dir/logs)"
+  fi
+  if [ "$rviz" = true ] && [ -t 0 ]; then
+    read -r -p "rviz is open on the last frame; press Enter to stop the graph " _ || true
+  fi
+  cleanup
+fi
+
 echo
-echo "Accuracy against the scene's ground truth (scripts/evaluate.py):"
-/usr/bin/python3 "$IMT_ROOT/scripts/evaluate.py" "$out/${preset}_truth.json" "$out/tracks" | sed 's/^/  /'
-echo
-echo "Results:"
+echo "Results in $out:"
 echo "  input bag:        $out/$preset.bag (ground truth: $out/${preset}_truth.json)"
 echo "  what was tracked: $out/${preset}_init.yaml"
-echo "  CSV + summary:    $out/tracks/ ($(ls "$out/tracks" | tr '\n' ' '))"
-echo "  output bag:       $out/${preset}_tracked.bag"
+if [ "$offline" = true ]; then
+  echo "  offline CSVs:     $out/tracks/ ($(ls "$out/tracks" | tr '\n' ' '))"
+  echo "  offline outputs:  $out/${preset}_tracked.bag"
+fi
+if [ "$live" = true ]; then
+  echo "  live graph:       $out/live/report.txt, strip.png, $(cd "$out/live" && ls debug_image.* 2>/dev/null | head -1), CSVs"
+fi

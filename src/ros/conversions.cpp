@@ -1,11 +1,21 @@
 #include "instant_motion_tracking/ros/conversions.h"
 
 #include <cmath>
+#include <initializer_list>
+#include <string>
 
 namespace imt {
 namespace {
 bool finite3(const geometry_msgs::Vector3& v) {
   return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z);
+}
+
+// The enum value whose name (`name_of`) is `name`; `fallback` when none is.
+template <class E, class F>
+E statusFromName(const std::string& name, F name_of, std::initializer_list<E> values, E fallback) {
+  for (E e : values)
+    if (name == name_of(e)) return e;
+  return fallback;
 }
 }  // namespace
 
@@ -274,6 +284,83 @@ std::vector<geometry_msgs::TransformStamped> anchorTransforms(const std::vector<
     t.transform.rotation = p.orientation;
     out.push_back(t);
   }
+  return out;
+}
+
+Eigen::Isometry3d fromPoseMsg(const geometry_msgs::Pose& p) {
+  const Eigen::Quaterniond q(p.orientation.w, p.orientation.x, p.orientation.y, p.orientation.z);
+  const Eigen::Vector3d t(p.position.x, p.position.y, p.position.z);
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  const double n = q.norm();
+  if (!std::isfinite(n) || n < 1e-6 || !t.allFinite()) {
+    T.matrix().setConstant(NAN);
+    return T;
+  }
+  T.linear() = q.normalized().toRotationMatrix();
+  T.translation() = t;
+  return T;
+}
+
+RegionState fromMsg(const instant_motion_tracking::TrackedRegion& m, double stamp) {
+  RegionState s;
+  s.id = m.id;
+  s.stamp = stamp;
+  s.box = cv::Rect2d(m.x, m.y, m.width, m.height);
+  s.status = statusFromName(m.status, regionStatusName,
+                            {RegionStatus::kTracked, RegionStatus::kFeatureless, RegionStatus::kOutOfView,
+                             RegionStatus::kLost},
+                            RegionStatus::kLost);
+  s.confidence = m.confidence;
+  s.velocity = Eigen::Vector2d(m.vx, m.vy);
+  s.inliers = m.inlier_ids;
+  s.outliers = m.outlier_ids;
+  return s;
+}
+
+std::vector<RegionState> fromMsg(const instant_motion_tracking::TrackedRegionArray& m) {
+  std::vector<RegionState> out;
+  for (const auto& r : m.regions) out.push_back(fromMsg(r, m.header.stamp.toSec()));
+  return out;
+}
+
+PlanarTargetState fromMsg(const instant_motion_tracking::PlanarTarget& m, double stamp) {
+  PlanarTargetState s;
+  s.id = m.id;
+  s.stamp = stamp;
+  for (int i = 0; i < 4; ++i) s.corners[i] = cv::Point2d(m.corners[i].x, m.corners[i].y);
+  s.T_cam_target = fromPoseMsg(m.pose);
+  s.width_m = m.width_m;
+  s.height_m = m.height_m;
+  s.status = statusFromName(m.status, targetStatusName,
+                            {TargetStatus::kTracked, TargetStatus::kOutOfView, TargetStatus::kLost},
+                            TargetStatus::kLost);
+  s.confidence = m.confidence;
+  return s;
+}
+
+std::vector<PlanarTargetState> fromMsg(const instant_motion_tracking::PlanarTargetArray& m) {
+  std::vector<PlanarTargetState> out;
+  for (const auto& t : m.targets) out.push_back(fromMsg(t, m.header.stamp.toSec()));
+  return out;
+}
+
+AnchorState fromMsg(const instant_motion_tracking::Anchor& m, double stamp) {
+  AnchorState s;
+  s.id = m.id;
+  s.stamp = stamp;
+  s.pixel = cv::Point2d(m.u, m.v);
+  s.T_cam_anchor = fromPoseMsg(m.pose);
+  s.status = statusFromName(m.status, anchorStatusName,
+                            {AnchorStatus::kTracked, AnchorStatus::kOutOfView, AnchorStatus::kNoImu,
+                             AnchorStatus::kLost},
+                            AnchorStatus::kLost);
+  s.confidence = m.confidence;
+  return s;
+}
+
+std::vector<AnchorState> fromMsg(const instant_motion_tracking::AnchorArray& m) {
+  std::vector<AnchorState> out;
+  for (const auto& a : m.anchors) out.push_back(fromMsg(a, m.header.stamp.toSec()));
   return out;
 }
 

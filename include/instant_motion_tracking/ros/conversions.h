@@ -60,4 +60,16 @@ std::vector<geometry_msgs::TransformStamped> anchorTransforms(const std::vector<
                                                               const std_msgs::Header& header,
                                                               const std::string& frame_prefix);
 
+// Tracker outputs back to the core states (for drawing them: debug_image).
+// What a message does not carry (inliers' centroid, support, reasons) is left
+// at its default; an unknown status reads as lost, a pose with a non-finite
+// or zero quaternion as NaN (no 3D estimate).
+Eigen::Isometry3d fromPoseMsg(const geometry_msgs::Pose& p);
+RegionState fromMsg(const instant_motion_tracking::TrackedRegion& m, double stamp);
+std::vector<RegionState> fromMsg(const instant_motion_tracking::TrackedRegionArray& m);
+PlanarTargetState fromMsg(const instant_motion_tracking::PlanarTarget& m, double stamp);
+std::vector<PlanarTargetState> fromMsg(const instant_motion_tracking::PlanarTargetArray& m);
+AnchorState fromMsg(const instant_motion_tracking::Anchor& m, double stamp);
+std::vector<AnchorState> fromMsg(const instant_motion_tracking::AnchorArray& m);
+
 }  // namespace imt

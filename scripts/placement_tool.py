@@ -2,6 +2,7 @@
 """Interactive placement: an OpenCV window on the live debug image.
 
   rosrun instant_motion_tracking placement_tool.py [_image:=debug_image] [_target_width:=0.3 _target_height:=0.2]
+                                                   [_draw_states:=false]
 
   drag                 add_region (the dragged box)
   click                add_anchor at the pixel (needs the AnchorNodelet)
@@ -12,8 +13,10 @@
 
 Requests carry the stamp of the frame shown, so what is placed on a frozen
 or late frame is placed where it was (the trackers accept stamps within
-their cache, cache_seconds). The latest regions, planar targets and anchors
-are drawn over the picture. Services are called by their relative names
+their cache, cache_seconds). debug_image already shows the regions, planar
+targets and anchors of its frame; on another image (e.g. _image:=/camera/image_raw)
+the latest ones are drawn over it (~draw_states, default: unless the image
+is a debug_image). Services are called by their relative names
 (remap or set ROS_NAMESPACE); a missing service (e.g. add_anchor without an
 AnchorNodelet) is reported in the window and on the console.
 Python 3 with python3-opencv and numpy; no cv_bridge.
@@ -191,10 +194,12 @@ def main():
         return cb
 
     image_topic = rospy.get_param("~image", "debug_image")
-    subs = [rospy.Subscriber(image_topic, Image, on_image, queue_size=1, buff_size=2 ** 24),
-            rospy.Subscriber("regions", TrackedRegionArray, keep("regions"), queue_size=1),
-            rospy.Subscriber("planar_targets", PlanarTargetArray, keep("targets"), queue_size=1),
-            rospy.Subscriber("anchors", AnchorArray, keep("anchors"), queue_size=1)]
+    draw = rospy.get_param("~draw_states", not image_topic.endswith("debug_image"))
+    subs = [rospy.Subscriber(image_topic, Image, on_image, queue_size=1, buff_size=2 ** 24)]
+    if draw:
+        subs += [rospy.Subscriber("regions", TrackedRegionArray, keep("regions"), queue_size=1),
+                 rospy.Subscriber("planar_targets", PlanarTargetArray, keep("targets"), queue_size=1),
+                 rospy.Subscriber("anchors", AnchorArray, keep("anchors"), queue_size=1)]
     types = {"add_region": AddRegion, "add_planar_target": AddPlanarTarget, "add_anchor": AddAnchor}
     pending = []
     window = "instant_motion_tracking placement"

@@ -83,7 +83,14 @@ AnchorManager::AnchorManager(const AnchorOptions& options, const ImuOptions& imu
       imu_(imu_options) {
   Eigen::Quaterniond q;
   if (options_.rotationCamImu(&q)) rotation_fixed_ = imu_.setRotationCamImu(q);
+  // Frames without a usable camera model (blur, a featureless view): the
+  // regions, the anchors' among them, move by the IMU rotation instead.
+  regions_->setCameraFallback([this](double t_prev, double t, Eigen::Matrix3d* H) {
+    return imu_.rotationHomography(intrinsics().K(), t_prev, t, H);
+  });
 }
+
+AnchorManager::~AnchorManager() { regions_->setCameraFallback(nullptr); }
 
 CameraIntrinsics AnchorManager::intrinsics() const {
   const cv::Size size = regions_->cache().imageSize();
@@ -295,9 +302,9 @@ bool AnchorManager::stateAt(double stamp, const std::vector<uint32_t>& ids,
   return true;
 }
 
-bool AnchorManager::ready(double stamp) const {
+bool AnchorManager::ready(double stamp, double newest_frame_stamp) const {
   if (anchors_.empty() || imu_.empty() || imu_.newestStamp() >= stamp) return true;
-  return regions_->newestStamp() - stamp >= options_.imu_wait_seconds;
+  return newest_frame_stamp - stamp >= options_.imu_wait_seconds;
 }
 
 }  // namespace imt

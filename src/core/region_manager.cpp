@@ -1,5 +1,6 @@
 #include "instant_motion_tracking/core/region_manager.h"
 
+#include <algorithm>
 #include <cmath>
 
 namespace imt {
@@ -29,16 +30,68 @@ std::vector<RegionState> RegionManager::update(const MotionData& md, const cv::M
   return out;
 }
 
+namespace {
+
+Eigen::Vector2d applyH(const Eigen::Matrix3d& H, double x, double y) {
+  const Eigen::Vector3d p = H * Eigen::Vector3d(x, y, 1);
+  return p.head<2>() / p.z();
+}
+
+}  // namespace
+
+const MotionData& RegionManager::frame(uint64_t seq, MotionData* scratch) const {
+  const MotionData& md = cache_.at(seq);
+  if (md.camera.model != MotionModel::kInvalid || !fallback_ || seq == cache_.firstSeq()) return md;
+  Eigen::Matrix3d H;
+  if (!fallback_(cache_.at(seq - 1).stamp, md.stamp, &H) || !H.allFinite()) return md;
+  *scratch = md;
+  scratch->camera.model = MotionModel::kHomography;
+  scratch->camera.H = H;
+  // Residuals against the new camera motion: the previous position is where
+  // the old model's prediction came from.
+  const Eigen::Matrix3d H_old_inv = md.camera.H.inverse();
+  std::vector<float> rx, ry;
+  for (FeatureMotion& f : scratch->features) {
+    if (f.age == 0) continue;  // new: no motion yet
+    const Eigen::Vector2d prev = applyH(H_old_inv, f.x - f.dx, f.y - f.dy);
+    const Eigen::Vector2d predicted = applyH(H, prev.x(), prev.y());
+    f.dx = static_cast<float>(f.x - predicted.x());
+    f.dy = static_cast<float>(f.y - predicted.y());
+    rx.push_back(f.dx);
+    ry.push_back(f.dy);
+  }
+  // What the rotation leaves (the camera's translation), when enough features
+  // agree on it: their median residual, taken out of every residual.
+  if (static_cast<int>(rx.size()) >= options_.fallback_min_features) {
+    auto median = [](std::vector<float>& v) {
+      std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
+      return v[v.size() / 2];
+    };
+    const float mx = median(rx), my = median(ry);
+    Eigen::Matrix3d T = Eigen::Matrix3d::Identity();
+    T(0, 2) = mx;
+    T(1, 2) = my;
+    scratch->camera.H = T * H;
+    for (FeatureMotion& f : scratch->features) {
+      if (f.age == 0) continue;
+      f.dx -= mx;
+      f.dy -= my;
+    }
+  }
+  return *scratch;
+}
+
 const RegionState& RegionManager::stateAt(Region& r, uint64_t seq) {
   RegionTracker tracker(options_, cache_.imageSize());
   auto& st = r.states;
+  MotionData scratch;
   // Forward from the newest known state.
   for (uint64_t s = st.rbegin()->first; s < seq; ++s) {
-    st[s + 1] = tracker.step(st[s], cache_.at(s + 1), Direction::kForward);
+    st[s + 1] = tracker.step(st[s], frame(s + 1, &scratch), Direction::kForward);
   }
   // Backward from the oldest known state.
   for (uint64_t s = st.begin()->first; s > seq; --s) {
-    st[s - 1] = tracker.step(st[s].reversed(), cache_.at(s), Direction::kBackward, cache_.at(s - 1).stamp)
+    st[s - 1] = tracker.step(st[s].reversed(), frame(s, &scratch), Direction::kBackward, cache_.at(s - 1).stamp)
                     .reversed();
   }
   return st.at(seq);

@@ -168,6 +168,7 @@ std::string RegionTrackerOptions::validate() const {
   check(out_of_view_fraction >= 0 && out_of_view_fraction <= 1, "out_of_view_fraction");
   check(lost_distance > 0, "lost_distance");
   check(confidence_inliers >= 1, "confidence_inliers");
+  check(fallback_min_features >= 1, "fallback_min_features");
   return e.str();
 }
 

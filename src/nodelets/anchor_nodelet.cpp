@@ -53,7 +53,6 @@ void AnchorNodelet::updateSubscription() {
     regions_->clear();
     anchors_->resetImu();
     pending_.clear();
-    pending_started_.clear();
   }
   health_.setSubscribed(bool(motion_sub_));
 }
@@ -119,7 +118,7 @@ void AnchorNodelet::imuCb(const sensor_msgs::ImuConstPtr& msg) {
       NODELET_WARN("%s", why.c_str());
       break;
   }
-  flush();
+  flush(false);
 }
 
 void AnchorNodelet::motionCb(const instant_motion_tracking::MotionDataConstPtr& msg) {
@@ -132,31 +131,32 @@ void AnchorNodelet::motionCb(const instant_motion_tracking::MotionDataConstPtr& 
     return;
   }
   camera_frame_ = msg->header.frame_id;
-  regions_->update(md);
+  // Time going back: the frames before the jump go first, in order.
+  if (!pending_.empty() && !(md.stamp > pending_.back().md.stamp)) flush(true);
+  pending_.push_back({msg->header, md, started});
+  flush(false);
+}
+
+void AnchorNodelet::flush(bool all) {
+  while (!pending_.empty() &&
+         (all || anchors_->ready(pending_.front().md.stamp, pending_.back().md.stamp))) {
+    const Pending frame = std::move(pending_.front());
+    pending_.pop_front();
+    track(frame);
+  }
+}
+
+void AnchorNodelet::track(const Pending& frame) {
+  const std_msgs::Header& header = frame.header;
+  regions_->update(frame.md);
   if (!regions_->lastReset().empty()) {
-    // Time went back (a looping bag) or the image size changed: the frames
-    // waiting for the IMU and the tf history belong to the old stream.
+    // Time went back (a looping bag) or the image size changed: the tf
+    // history belongs to the old stream.
     if (health_.noteReset(regions_->lastReset()))
       NODELET_WARN("%s; anchors cleared", regions_->lastReset().c_str());
-    pending_.clear();
-    pending_started_.clear();
     tf_buffer_->clear();
   }
   anchors_->update();
-  pending_.push_back(msg->header);
-  pending_started_.push_back(started);
-  flush();
-}
-
-void AnchorNodelet::flush() {
-  while (!pending_.empty() && anchors_->ready(pending_.front().stamp.toSec())) {
-    publish(pending_.front(), pending_started_.front());
-    pending_.pop_front();
-    pending_started_.pop_front();
-  }
-}
-
-void AnchorNodelet::publish(const std_msgs::Header& header, const ros::WallTime& started) {
   std::vector<AnchorState> states;
   std::string error;
   if (!anchors_->stateAt(header.stamp.toSec(), {}, &states, &error)) {
@@ -181,12 +181,14 @@ void AnchorNodelet::publish(const std_msgs::Header& header, const ros::WallTime&
   for (const AnchorState& s : states) statuses.push_back(anchorStatusName(s.status));
   health_.setItems(statuses);
   // Processing time includes the wait for the IMU: what a consumer sees.
-  health_.noteFrame(header.stamp, started);
+  health_.noteFrame(header.stamp, frame.started);
 }
 
 bool AnchorNodelet::addCb(instant_motion_tracking::AddAnchor::Request& req,
                           instant_motion_tracking::AddAnchor::Response& res) {
   std::lock_guard<std::mutex> lock(mutex_);
+  // A stamp among the frames still waiting for the IMU: they go in now.
+  if (req.stamp.toSec() > regions_->newestStamp()) flush(true);
   std::string error;
   uint32_t id = 0;
   res.success =

@@ -13,7 +13,9 @@
 //
 // The regions live in a RegionManager owned by the caller (the nodelet's
 // own, or the pipeline's in track_bag), under region ids >= kAnchorRegionBase
-// so they never meet the user's regions; call update() after every
+// so they never meet the user's regions. The manager installs the IMU
+// rotation as the region manager's camera fallback (RegionManager::
+// setCameraFallback) for frames without a usable camera model; call update() after every
 // RegionManager::update() so a reset there (time going backwards, a new image
 // size) clears the anchors too.
 //
@@ -28,9 +30,9 @@
 //   imt::AnchorManager anchors(o.anchors, o.imu, o.default_hfov_deg, &regions);
 //   anchors.setRotationCamImu(q_cam_imu_from_tf);   // ignored when anchors.rotation_cam_imu is set
 //   on IMU:   if (anchors.addImu(sample, &why) == ImuInput::kDropped) warn(why);
-//   on frame: regions.update(md); anchors.update();
-//             while (anchors.ready(oldest_pending))
-//               { anchors.stateAt(oldest_pending, {}, &states, &err); publish(states); pop; }
+//   on frame: queue md; while (anchors.ready(oldest_queued, newest_queued))
+//               { regions.update(oldest md); anchors.update();
+//                 anchors.stateAt(its stamp, {}, &states, &err); publish(states); pop; }
 //   anchors.add(0, stamp, {u, v}, depth, &id, &error);   // stamp 0 = the latest frame
 // Threading: not thread-safe; callers serialise (the nodelet holds a mutex).
 #pragma once
@@ -114,6 +116,9 @@ class AnchorManager {
   // empty) are replaced by the defaults; check them beforehand.
   AnchorManager(const AnchorOptions& options, const ImuOptions& imu_options,
                 double default_hfov_deg, RegionManager* regions);
+  ~AnchorManager();  // removes its camera fallback from the region manager
+  AnchorManager(const AnchorManager&) = delete;
+  AnchorManager& operator=(const AnchorManager&) = delete;
 
   // Intrinsics of the image (camera_info); used while their size matches the
   // frames, else a pinhole with default_hfov_deg.
@@ -152,8 +157,11 @@ class AnchorManager {
                std::string* error);
   // Whether the frame at `stamp` can be given its anchors now (live): no
   // anchors, no IMU ever seen, the IMU past the stamp, or the newest frame
-  // imu_wait_seconds after it.
-  bool ready(double stamp) const;
+  // imu_wait_seconds after it. `newest_frame_stamp`: the newest frame known,
+  // when the caller holds frames back from the region manager until they
+  // are ready (so the IMU can stand in for a missing camera model).
+  bool ready(double stamp) const { return ready(stamp, regions_->newestStamp()); }
+  bool ready(double stamp, double newest_frame_stamp) const;
 
   size_t size() const { return anchors_.size(); }
   bool contains(uint32_t id) const { return anchors_.count(id) > 0; }

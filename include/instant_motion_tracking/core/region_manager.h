@@ -13,12 +13,18 @@
 //   regions.seek(stamp, {}, &states, &error);
 // Offline (track_bag): cache_seconds <= 0 keeps everything; add every region
 // after the motion analysis pass, then seek() each frame's stamp.
+// A camera-motion fallback (setCameraFallback, e.g. the IMU rotation that
+// AnchorManager installs) stands in for frames whose own camera model is
+// invalid, so regions out of view stay predicted through them.
 // Threading: not thread-safe; callers serialise (the nodelet holds a mutex).
 #pragma once
 
 #include "instant_motion_tracking/core/motion_cache.h"
 #include "instant_motion_tracking/core/region_tracker.h"
 
+#include <Eigen/Core>
+
+#include <functional>
 #include <map>
 #include <string>
 #include <vector>
@@ -48,6 +54,13 @@ class RegionManager {
   std::vector<RegionState> latest() const;
 
   void clear();
+
+  // Camera motion H (pixels at t_prev -> pixels at t) for frames whose model
+  // is invalid; false when it does not know either. Used while tracking, so
+  // a state computed before the fallback knew a frame keeps what it had.
+  // nullptr (the default) turns it off.
+  using CameraFallback = std::function<bool(double t_prev, double t, Eigen::Matrix3d* H)>;
+  void setCameraFallback(CameraFallback fallback) { fallback_ = std::move(fallback); }
   const MotionCache& cache() const { return cache_; }
   size_t cachedFrames() const { return cache_.size(); }
   double oldestStamp() const { return cache_.oldestStamp(); }
@@ -61,11 +74,15 @@ class RegionManager {
     std::map<uint64_t, RegionState> states;  // by frame sequence number, forward semantics
   };
   const RegionState& stateAt(Region& r, uint64_t seq);
+  // The cached frame `seq`, its camera motion from the fallback when its own
+  // model is invalid (`scratch` holds the patched copy).
+  const MotionData& frame(uint64_t seq, MotionData* scratch) const;
 
   RegionTrackerOptions options_;
   MotionCache cache_;
   std::map<uint32_t, Region> regions_;
   std::string last_reset_;
+  CameraFallback fallback_;
 };
 
 }  // namespace imt

@@ -25,6 +25,8 @@ struct RegionTrackerOptions {
   double out_of_view_fraction = 0.25;  // box fraction inside the image below which it is out_of_view
   double lost_distance = 3.0;      // out of view farther than this many box sizes outside the image: lost
   double confidence_inliers = 20;  // inliers at which confidence reaches 1
+  // features whose median residual adds a translation to the camera fallback (IMU rotation)
+  int fallback_min_features = 10;
 
   template <class V>
   void visit(V& v) {
@@ -46,6 +48,8 @@ struct RegionTrackerOptions {
     v("out_of_view_fraction", out_of_view_fraction, "box fraction inside the image below which it is out_of_view");
     v("lost_distance", lost_distance, "out of view farther than this many box sizes: lost");
     v("confidence_inliers", confidence_inliers, "inliers at which confidence reaches 1");
+    v("fallback_min_features", fallback_min_features,
+      "features whose median residual adds a translation to the camera fallback (IMU rotation)");
   }
   std::string validate() const;
 };

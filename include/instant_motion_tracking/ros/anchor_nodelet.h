@@ -12,7 +12,9 @@
 // Reads tf2: the rotation of the IMU message's frame in the image frame
 //   (/tf_static), unless ~anchors/rotation_cam_imu fixes it; identity until found.
 // Publishes, stamped with the image stamp of the motion data (each frame once
-// the IMU has passed its stamp, at most ~anchors/imu_wait_seconds later):
+// the IMU has passed its stamp, at most ~anchors/imu_wait_seconds later; only
+// then does the frame reach the region tracking, so that the IMU rotation can
+// stand in for a frame without a camera model):
 //   anchors         instant_motion_tracking/AnchorArray
 //   markers         visualization_msgs/MarkerArray (each anchor's axes)
 //   tf2             <frame_prefix>anchor_<id>, child of the image frame (~publish_tf)
@@ -57,6 +59,13 @@ class AnchorNodelet : public nodelet::Nodelet {
   void onInit() override;
 
  private:
+  // Frames waiting for the IMU to pass their stamp before they reach the
+  // region manager (so the IMU rotation can stand in for a missing camera model).
+  struct Pending {
+    std_msgs::Header header;
+    MotionData md;
+    ros::WallTime started;  // when its callback began
+  };
   void updateSubscription();  // call with mutex_ held
   void motionCb(const instant_motion_tracking::MotionDataConstPtr& msg);
   void infoCb(const sensor_msgs::CameraInfoConstPtr& msg);
@@ -66,14 +75,13 @@ class AnchorNodelet : public nodelet::Nodelet {
   bool removeCb(instant_motion_tracking::RemoveRegion::Request& req,
                 instant_motion_tracking::RemoveRegion::Response& res);
   void lookupRotation(const std::string& imu_frame);  // R_cam_imu from tf2, once found
-  void flush();                                       // publishes the frames that are ready
-  void publish(const std_msgs::Header& header, const ros::WallTime& started);
+  void flush(bool all);  // tracks and publishes the frames that are ready (all: every one)
+  void track(const Pending& frame);
 
   Config config_;
   std::unique_ptr<RegionManager> regions_;
   std::unique_ptr<AnchorManager> anchors_;
-  std::deque<std_msgs::Header> pending_;  // frames waiting for the IMU
-  std::deque<ros::WallTime> pending_started_;  // when each began processing
+  std::deque<Pending> pending_;
   NodeletHealth health_;
   std::string camera_frame_, imu_frame_;
   bool rotation_known_ = false, imu_seen_ = false;

@@ -113,7 +113,13 @@ ImuInput AnchorManager::addImu(const ImuSample& s, std::string* why) {
     imu_.add(s);
     return ImuInput::kReset;
   }
-  return imu_.add(s, why) ? ImuInput::kAccepted : ImuInput::kDropped;
+  const size_t gaps = imu_.gaps();
+  if (!imu_.add(s, why)) return ImuInput::kDropped;
+  if (imu_.gaps() == gaps) return ImuInput::kAccepted;
+  if (why)
+    *why = "IMU gap of " + num(imu_.lastGapSeconds()) + " s before stamp " + num(s.stamp) +
+           ": no orientation inside it; roll and pitch re-levelled from the accelerometer, yaw carried over";
+  return ImuInput::kGap;
 }
 
 void AnchorManager::resetImu() {

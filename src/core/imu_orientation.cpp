@@ -55,6 +55,8 @@ std::string ImuOptions::validate() const {
   if (!(gravity >= 1 && gravity <= 100)) return bad("gravity", "must be in [1, 100]", gravity);
   if (!(window_seconds >= 0.1 && window_seconds <= 3600))
     return bad("window_seconds", "must be in [0.1, 3600]", window_seconds);
+  if (!(max_gap_seconds > 0 && max_gap_seconds <= 10))
+    return bad("max_gap_seconds", "must be in (0, 10]", max_gap_seconds);
   return "";
 }
 
@@ -72,6 +74,9 @@ void ImuOrientation::reset() {
   block_count_ = 0;
   still_confirmed_ = false;
   initial_stretch_ = false;
+  gaps_ = 0;
+  gap_stamps_.clear();
+  last_gap_ = 0;
 }
 
 bool ImuOrientation::setRotationCamImu(const Eigen::Quaterniond& R_cam_imu) {
@@ -126,6 +131,20 @@ bool ImuOrientation::add(const ImuSample& s, std::string* why) {
     if (!(s.accel.norm() > 1e-3 * options_.gravity))
       return fail("IMU sample dropped: zero accelerometer reading, cannot level the first orientation");
     e.q_world_imu = levelFromAccel(s.accel);
+  } else if (s.stamp - window_.back().stamp > options_.max_gap_seconds) {
+    // A gap: the orientation before it, re-levelled onto this reading.
+    const Eigen::Quaterniond& q = window_.back().q_world_imu;
+    e.after_gap = true;
+    e.q_world_imu = q;
+    if (s.accel.norm() > 1e-3 * options_.gravity)
+      e.q_world_imu = (Eigen::Quaterniond::FromTwoVectors(q * s.accel, Eigen::Vector3d::UnitZ()) * q).normalized();
+    ++gaps_;
+    gap_stamps_.push_back(s.stamp);
+    last_gap_ = s.stamp - window_.back().stamp;
+    block_count_ = 0;  // stillness starts over
+    still_count_ = 0;
+    still_confirmed_ = false;
+    initial_stretch_ = false;
   } else {
     e.q_world_imu = integrate(window_.back(), s.gyro, s.stamp);
   }
@@ -201,7 +220,7 @@ void ImuOrientation::reintegrateFrom(double stamp) {
                              [](const Entry& e, double t) { return e.stamp < t; });
   if (it == window_.end()) return;
   for (auto cur = std::next(it); cur != window_.end(); ++cur) {
-    if (cur->fused) continue;
+    if (cur->fused || cur->after_gap) continue;
     cur->q_world_imu = integrate(*std::prev(cur), cur->gyro, cur->stamp);
   }
 }
@@ -211,6 +230,7 @@ void ImuOrientation::prune() {
   // Keep the last entry at or before `oldest`, so [newest - window_seconds,
   // newest] stays answerable.
   while (window_.size() > 2 && window_[1].stamp <= oldest) window_.pop_front();
+  while (!gap_stamps_.empty() && gap_stamps_.front() <= window_.front().stamp) gap_stamps_.pop_front();
 }
 
 bool ImuOrientation::R_world_imu(double t, Eigen::Matrix3d* R) const {
@@ -224,6 +244,7 @@ bool ImuOrientation::R_world_imu(double t, Eigen::Matrix3d* R) const {
   }
   const Entry& b = *it;
   const Entry& a = *std::prev(it);
+  if (b.after_gap) return false;  // inside a gap: unknown
   const double u = (t - a.stamp) / (b.stamp - a.stamp);
   if (R) *R = a.q_world_imu.slerp(u, b.q_world_imu).toRotationMatrix();
   return true;
@@ -239,6 +260,9 @@ bool ImuOrientation::R_world_cam(double t, Eigen::Matrix3d* R) const {
 bool ImuOrientation::R_cam1_cam2(double t1, double t2, Eigen::Matrix3d* R) const {
   Eigen::Matrix3d R1, R2;
   if (!R_world_cam(t1, &R1) || !R_world_cam(t2, &R2)) return false;
+  // A gap in between: the rotation across it is unknown.
+  const auto gap = std::upper_bound(gap_stamps_.begin(), gap_stamps_.end(), std::min(t1, t2));
+  if (gap != gap_stamps_.end() && *gap <= std::max(t1, t2)) return false;
   if (R) *R = R1.transpose() * R2;
   return true;
 }

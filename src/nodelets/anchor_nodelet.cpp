@@ -117,6 +117,9 @@ void AnchorNodelet::imuCb(const sensor_msgs::ImuConstPtr& msg) {
     case ImuInput::kReset:
       NODELET_WARN("%s", why.c_str());
       break;
+    case ImuInput::kGap:
+      NODELET_WARN_THROTTLE(5.0, "%s", why.c_str());
+      break;
   }
   flush(false);
 }

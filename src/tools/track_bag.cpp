@@ -539,12 +539,16 @@ class TrackBagRun {
     anchors->setIntrinsics(k_info_);
     if (q_cam_imu_) anchors->setRotationCamImu(*q_cam_imu_);
     if (samples.size() < 2) return anchors;
-    size_t dropped = 0, restarts = 0;
+    size_t dropped = 0, restarts = 0, gaps = 0;
     for (const imt::ImuSample& s : samples) {
       const imt::ImuInput r = anchors->addImu(s);
       dropped += r == imt::ImuInput::kDropped;
       restarts += r == imt::ImuInput::kReset;
+      gaps += r == imt::ImuInput::kGap;
     }
+    if (gaps)
+      notes_.warn("the IMU stream has " + std::to_string(gaps) + " gap(s) longer than imu.max_gap_seconds " +
+                  "(no anchor orientation inside them; roll and pitch re-levelled after each)");
     if (dropped) notes_.warn("the IMU orientation dropped " + std::to_string(dropped) + " sample(s) (NaN or out of order)");
     if (restarts)
       notes_.warn("the IMU orientation restarted " + std::to_string(restarts) + " time(s) (IMU time jumped back)");

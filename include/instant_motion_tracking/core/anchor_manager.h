@@ -105,7 +105,9 @@ struct AnchorState {
 };
 
 // What became of an IMU sample given to AnchorManager::addImu().
-enum class ImuInput { kAccepted, kDropped, kReset };
+// kGap: accepted after a gap longer than imu.max_gap_seconds (no orientation
+// inside it; roll and pitch re-levelled, yaw carried over: worth a warning).
+enum class ImuInput { kAccepted, kDropped, kReset, kGap };
 
 class AnchorManager {
  public:

@@ -34,6 +34,12 @@
 // the stretch the stream began with, the initial level is re-taken from its
 // mean accelerometer reading (less noisy than the first reading).
 //
+// Gaps: samples farther apart than max_gap_seconds are not integrated across
+// (the rate in between is unknown). Queries inside a gap return false; the
+// first sample after it takes the orientation before it, re-levelled onto its
+// accelerometer reading by the smallest rotation (roll and pitch observed
+// again, yaw carried over). gaps() counts them.
+//
 // Memory: orientations of the last window_seconds are kept (queries outside
 // [oldest, newest] stamp return false).
 //
@@ -67,6 +73,7 @@ struct ImuOptions {
   double still_accel_max = 0.3;        // m/s^2; block-mean accel farther than this from g or the stretch's first block: not still
   double gravity = 9.81;               // m/s^2, local gravity magnitude
   double window_seconds = 10.0;        // s of integrated orientations kept for queries
+  double max_gap_seconds = 0.1;        // s between samples above which the stream is interrupted (a gap)
 
   template <class V>
   void visit(V& v) {
@@ -88,6 +95,7 @@ struct ImuOptions {
       "m/s^2; block-mean accel farther than this from g or the stretch's first block: not still");
     v("gravity", gravity, "m/s^2, local gravity magnitude");
     v("window_seconds", window_seconds, "s of integrated orientations kept for queries");
+    v("max_gap_seconds", max_gap_seconds, "s between samples above which the stream is interrupted (a gap)");
   }
   // Empty when usable, else "imu.<field>: must be ... (got ...)".
   std::string validate() const;
@@ -116,7 +124,7 @@ class ImuOrientation {
   bool R_world_cam(double t, Eigen::Matrix3d* R) const;
   // Camera rotation between two stamps: maps camera-at-t2 vectors into the
   // camera at t1 (R_world_cam(t1)^T R_world_cam(t2)). Yaw-free and bias-light:
-  // only the gyro between t1 and t2 matters.
+  // only the gyro between t1 and t2 matters. False across a gap.
   bool R_cam1_cam2(double t1, double t2, Eigen::Matrix3d* R) const;
   // Rotation-only homography mapping pixels at t1 to pixels at t2:
   // H = K R_cam2_cam1 K^-1, H(2,2) = 1 (pure rotation or distant scene).
@@ -129,6 +137,8 @@ class ImuOrientation {
   bool biasEstimated() const { return bias_estimated_; }
   bool empty() const { return window_.empty(); }
   size_t size() const { return window_.size(); }
+  size_t gaps() const { return gaps_; }             // gaps met since construction or reset()
+  double lastGapSeconds() const { return last_gap_; }
   double oldestStamp() const { return window_.empty() ? 0 : window_.front().stamp; }
   double newestStamp() const { return window_.empty() ? 0 : window_.back().stamp; }
   const ImuOptions& options() const { return options_; }
@@ -140,6 +150,7 @@ class ImuOrientation {
     Eigen::Quaterniond q_world_imu = Eigen::Quaterniond::Identity();
     Eigen::Vector3d gyro = Eigen::Vector3d::Zero();  // raw reading
     bool fused = false;                              // q taken from the sample's orientation
+    bool after_gap = false;                          // not integrated from the previous entry
   };
   Eigen::Quaterniond integrate(const Entry& prev, const Eigen::Vector3d& gyro, double stamp) const;
   void updateStill(const ImuSample& s);
@@ -153,6 +164,9 @@ class ImuOrientation {
   bool bias_estimated_ = false;
   double estimate_seconds_ = 0;  // duration of the still stretch behind the estimate
   std::deque<Entry> window_;
+  std::deque<double> gap_stamps_;  // stamps of the entries after a gap, within the window
+  size_t gaps_ = 0;
+  double last_gap_ = 0;
   bool initial_stretch_ = false;  // the current still stretch began with the stream's first sample
   // Current block of samples (still detection).
   size_t block_count_ = 0;

@@ -1,12 +1,17 @@
 // Helpers shared by the rostest nodes: wall-time polling (the graph may run
-// on sim time), playing a bag's images into the graph as a child process,
-// and driving the paused player of launch/replay.launch.
+// on sim time), scenes rendered by make_scene with their ground truth,
+// playing a bag's images into the graph as a child process, and driving the
+// paused player of launch/replay.launch.
 #pragma once
 
+#include <nlohmann/json.hpp>
 #include <ros/ros.h>
 #include <std_srvs/SetBool.h>
 
 #include <csignal>
+#include <cstdlib>
+#include <fstream>
+#include <map>
 #include <string>
 #include <vector>
 #include <sys/wait.h>
@@ -25,6 +30,47 @@ bool spinUntil(F done, double timeout_s) {
     ros::WallDuration(0.01).sleep();
   }
   return done();
+}
+
+// A scene rendered by make_scene into a temporary folder (removed with it):
+// the bag, its ground truth (JSON, see io/scene_files.h) and the frame of
+// each image stamp.
+struct SceneBag {
+  std::string dir, bag;
+  nlohmann::json truth;
+  std::map<ros::Time, size_t> frame_of;
+
+  SceneBag() = default;
+  SceneBag(const SceneBag&) = delete;
+  SceneBag& operator=(const SceneBag&) = delete;
+  ~SceneBag() {
+    if (!dir.empty()) std::system(("rm -rf " + dir).c_str());
+  }
+  size_t frames() const { return truth["frames"].size(); }
+  ros::Time stamp(size_t k) const { return ros::Time(truth["frames"][k]["stamp"].get<double>()); }
+  const nlohmann::json& frame(size_t k) const { return truth["frames"][k]; }
+};
+
+// Renders `make_scene_args` (e.g. "--preset cards --duration 4 --seed 2")
+// into `scene`; false with the command (and where its log is) on failure.
+inline bool makeSceneBag(const std::string& make_scene_args, SceneBag* scene, std::string* error) {
+  char tmpl[] = "/tmp/imt_rostest_XXXXXX";
+  if (!mkdtemp(tmpl)) {
+    *error = "mkdtemp failed";
+    return false;
+  }
+  scene->dir = tmpl;
+  scene->bag = scene->dir + "/scene.bag";
+  const std::string truth = scene->dir + "/truth.json";
+  const std::string cmd = std::string(IMT_BIN_DIR) + "/make_scene " + make_scene_args + " --quiet --out " +
+                          scene->bag + " --truth " + truth + " > " + scene->dir + "/make_scene.log 2>&1";
+  if (std::system(cmd.c_str()) != 0) {
+    *error = "failed: " + cmd;
+    return false;
+  }
+  std::ifstream(truth) >> scene->truth;
+  for (size_t k = 0; k < scene->frames(); ++k) scene->frame_of[scene->stamp(k)] = k;
+  return true;
 }
 
 // Starts rosbag play of /camera/image_raw of `bag`, once something subscribes

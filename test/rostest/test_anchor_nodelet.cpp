@@ -62,26 +62,20 @@ AddAnchor request(ros::Time stamp, uint32_t id, float u, float v, float depth) {
 }
 
 TEST(AnchorNodelet, AddedThroughTheServiceMatchesGroundTruthOnTopicAndTf) {
-  char tmpl[] = "/tmp/imt_anchor_XXXXXX";
-  const std::string dir = mkdtemp(tmpl) ? tmpl : "";
-  ASSERT_FALSE(dir.empty());
-  const std::string bag = dir + "/floor_walk.bag", truth_path = dir + "/truth.json";
   // 8 s: the anchor leaves the view at 4.2 s and is back at 6.3 s.
-  const std::string cmd = std::string(IMT_BIN_DIR) +
-                          "/make_scene --preset floor_walk --duration 8 --seed 3 --quiet --out " +
-                          bag + " --truth " + truth_path + " > " + dir + "/make_scene.log 2>&1";
-  ASSERT_EQ(std::system(cmd.c_str()), 0) << cmd;
-  nlohmann::json truth;
-  std::ifstream(truth_path) >> truth;
-  const size_t n = truth["frames"].size();
+  imt::test::SceneBag scene;
+  std::string err;
+  ASSERT_TRUE(imt::test::makeSceneBag("--preset floor_walk --duration 8 --seed 3", &scene, &err)) << err;
+  const nlohmann::json& truth = scene.truth;
+  const size_t n = scene.frames();
   ASSERT_EQ(n, 240u);
   const std::string frame_id = truth["frame_id"];
-  auto stampOf = [&](size_t k) { return ros::Time(truth["frames"][k]["stamp"].get<double>()); };
+  auto stampOf = [&](size_t k) { return scene.stamp(k); };
   auto R_world_cam = [&](size_t k) {
     return quat(truth["frames"][k]["T_world_cam"]["q"]).toRotationMatrix();
   };
-  std::map<ros::Time, size_t> frame_of;
-  for (size_t k = 0; k < n; ++k) frame_of[stampOf(k)] = k;
+  std::map<ros::Time, size_t> frame_of = scene.frame_of;
+  const std::string bag = scene.bag;
 
   ros::NodeHandle nh;
   tf2_ros::Buffer tf_buffer(ros::Duration(60));
@@ -265,7 +259,6 @@ TEST(AnchorNodelet, AddedThroughTheServiceMatchesGroundTruthOnTopicAndTf) {
   EXPECT_TRUE(warned("dropping IMU sample: IMU sample with NaN/Inf"))
       << warnings.size() << " warnings";
   EXPECT_TRUE(warned("is not after the previous one")) << warnings.size() << " warnings";
-  std::system(("rm -rf " + dir).c_str());
 }
 
 }  // namespace

@@ -55,23 +55,17 @@ AddPlanarTarget request(ros::Time stamp, uint32_t id, const nlohmann::json& corn
 }
 
 TEST(PlanarTargetNodelet, PosterAddedThroughTheServiceMatchesGroundTruthOnTopicAndTf) {
-  char tmpl[] = "/tmp/imt_planar_XXXXXX";
-  const std::string dir = mkdtemp(tmpl) ? tmpl : "";
-  ASSERT_FALSE(dir.empty());
-  const std::string bag = dir + "/poster_orbit.bag", truth_path = dir + "/truth.json";
   // 8 s of the 20 s orbit: oblique views up to ~40 degrees and a brightness swing.
-  const std::string cmd = std::string(IMT_BIN_DIR) +
-                          "/make_scene --preset poster_orbit --duration 8 --seed 4 --quiet --out " + bag +
-                          " --truth " + truth_path + " > " + dir + "/make_scene.log 2>&1";
-  ASSERT_EQ(std::system(cmd.c_str()), 0) << cmd;
-  nlohmann::json truth;
-  std::ifstream(truth_path) >> truth;
-  const size_t n = truth["frames"].size();
+  imt::test::SceneBag scene;
+  std::string why;
+  ASSERT_TRUE(imt::test::makeSceneBag("--preset poster_orbit --duration 8 --seed 4", &scene, &why)) << why;
+  const nlohmann::json& truth = scene.truth;
+  const size_t n = scene.frames();
   ASSERT_EQ(n, 240u);
   const std::string frame_id = truth["frame_id"];
-  auto stampOf = [&](size_t k) { return ros::Time(truth["frames"][k]["stamp"].get<double>()); };
-  std::map<ros::Time, size_t> frame_of;
-  for (size_t k = 0; k < n; ++k) frame_of[stampOf(k)] = k;
+  auto stampOf = [&](size_t k) { return scene.stamp(k); };
+  std::map<ros::Time, size_t> frame_of = scene.frame_of;
+  const std::string bag = scene.bag;
 
   ros::NodeHandle nh;
   tf2_ros::Buffer tf_buffer(ros::Duration(60));
@@ -189,7 +183,6 @@ TEST(PlanarTargetNodelet, PosterAddedThroughTheServiceMatchesGroundTruthOnTopicA
   rm.request.id = id;
   ASSERT_TRUE(ros::service::call("remove_planar_target", rm));
   EXPECT_TRUE(rm.response.success) << rm.response.message;
-  std::system(("rm -rf " + dir).c_str());
 }
 
 }  // namespace

@@ -48,18 +48,14 @@ cv::Rect2d truthBox(const nlohmann::json& truth, size_t frame, uint32_t id) {
 }
 
 TEST(TrackerServices, AddInThePastBadRequestsAndSeek) {
-  char tmpl[] = "/tmp/imt_services_XXXXXX";
-  const std::string dir = mkdtemp(tmpl) ? tmpl : "";
-  ASSERT_FALSE(dir.empty());
-  const std::string bag = dir + "/cards.bag", truth_path = dir + "/truth.json";
-  const std::string cmd = std::string(IMT_BIN_DIR) + "/make_scene --preset cards --duration 4 --seed 2 --quiet --out " +
-                          bag + " --truth " + truth_path + " > " + dir + "/make_scene.log 2>&1";
-  ASSERT_EQ(std::system(cmd.c_str()), 0) << cmd;
-  nlohmann::json truth;
-  std::ifstream(truth_path) >> truth;
-  const size_t n = truth["frames"].size();
+  imt::test::SceneBag scene;
+  std::string err;
+  ASSERT_TRUE(imt::test::makeSceneBag("--preset cards --duration 4 --seed 2", &scene, &err)) << err;
+  const nlohmann::json& truth = scene.truth;
+  const std::string bag = scene.bag;
+  const size_t n = scene.frames();
   ASSERT_EQ(n, 120u);
-  auto stampOf = [&](size_t k) { return ros::Time(truth["frames"][k]["stamp"].get<double>()); };
+  auto stampOf = [&](size_t k) { return scene.stamp(k); };
 
   ros::NodeHandle nh;
   std::vector<instant_motion_tracking::TrackedRegionArray> received;
@@ -178,7 +174,6 @@ TEST(TrackerServices, AddInThePastBadRequestsAndSeek) {
   ASSERT_TRUE(ros::service::call("seek_regions", seek));
   EXPECT_FALSE(seek.response.success);
   EXPECT_NE(seek.response.message.find("unknown region id"), std::string::npos);
-  std::system(("rm -rf " + dir).c_str());
 }
 
 }  // namespace

@@ -7,6 +7,7 @@
 //
 //   make -C _build benchmarks && taskset -c 0 _build/benchmark/benchmark_region_tracking [seconds]
 #include "instant_motion_tracking/core/motion_analysis.h"
+#include "../test/box_metrics.h"
 #include "instant_motion_tracking/core/region_manager.h"
 #include "instant_motion_tracking/core/scene.h"
 
@@ -26,14 +27,7 @@ namespace {
 using Clock = std::chrono::steady_clock;
 using imt::FrameTruth;
 
-double iouClipped(cv::Rect2d a, cv::Rect2d b, cv::Size size) {
-  const cv::Rect2d img(0, 0, size.width, size.height);
-  a &= img;
-  b &= img;
-  const double i = (a & b).area();
-  const double u = a.area() + b.area() - i;
-  return u > 0 ? i / u : 0;
-}
+using imt::test::iouClipped;
 
 const FrameTruth::Region* region(const FrameTruth& f, uint32_t id) {
   for (const auto& r : f.regions)

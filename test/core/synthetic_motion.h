@@ -5,6 +5,7 @@
 #pragma once
 
 #include "instant_motion_tracking/core/types.h"
+#include "../box_metrics.h"
 
 #include <opencv2/core.hpp>
 
@@ -17,11 +18,7 @@ namespace synthetic {
 
 const cv::Size kImage(640, 480);
 
-inline double iou(const cv::Rect2d& a, const cv::Rect2d& b) {
-  const double i = (a & b).area();
-  const double u = a.area() + b.area() - i;
-  return u > 0 ? i / u : 0;
-}
+using test::iou;
 
 inline Eigen::Vector2d applyH(const Eigen::Matrix3d& H, const Eigen::Vector2d& p) {
   return (H * p.homogeneous()).hnormalized();

@@ -3,6 +3,7 @@
 // featureless wall patch, camera pan/roll/zoom), the real motion analysis,
 // then the region manager. Scored by IoU against the generator's boxes.
 #include "instant_motion_tracking/core/motion_analysis.h"
+#include "../box_metrics.h"
 #include "instant_motion_tracking/core/region_manager.h"
 #include "instant_motion_tracking/core/scene.h"
 
@@ -14,14 +15,7 @@
 namespace imt {
 namespace {
 
-double iouClipped(cv::Rect2d a, cv::Rect2d b, cv::Size size) {
-  const cv::Rect2d img(0, 0, size.width, size.height);
-  a &= img;
-  b &= img;
-  const double i = (a & b).area();
-  const double u = a.area() + b.area() - i;
-  return u > 0 ? i / u : 0;
-}
+using test::iouClipped;
 
 // Renders and analyses the scene once for every test of this file.
 class CardsScene : public ::testing::Test {

@@ -10,6 +10,7 @@
 //  - a tf2_ros listener on sim time sees no TF_REPEATED_DATA, and every tf is
 //    stamped with an image stamp.
 #include "instant_motion_tracking/AddPlanarTarget.h"
+#include "../box_metrics.h"
 #include "instant_motion_tracking/AddRegion.h"
 #include "instant_motion_tracking/PlanarTargetArray.h"
 #include "instant_motion_tracking/TrackedRegionArray.h"
@@ -52,13 +53,8 @@ class TfWarningCounter : public console_bridge::OutputHandler {
   std::atomic<int> repeated{0};
 };
 
-cv::Rect2d clip(const cv::Rect2d& b) { return b & cv::Rect2d(0, 0, 640, 480); }
-
-double iou(const cv::Rect2d& a, const cv::Rect2d& b) {
-  const double i = (a & b).area();
-  const double u = a.area() + b.area() - i;
-  return u > 0 ? i / u : 0;
-}
+cv::Rect2d clip(const cv::Rect2d& b) { return imt::test::clipToImage(b, cv::Size(640, 480)); }
+using imt::test::iou;
 
 struct Truth {
   nlohmann::json json;

@@ -5,6 +5,7 @@
 // message, and the nodelets must live on), and seeks backwards; results are
 // scored against the scene's ground truth.
 #include "instant_motion_tracking/AddPlanarTarget.h"
+#include "../box_metrics.h"
 #include "instant_motion_tracking/AddRegion.h"
 #include "instant_motion_tracking/RemoveRegion.h"
 #include "instant_motion_tracking/SeekRegions.h"
@@ -33,13 +34,8 @@ using imt::test::playImages;
 using imt::test::spinUntil;
 using imt::test::stopPlayer;
 
-cv::Rect2d clip(const cv::Rect2d& b) { return b & cv::Rect2d(0, 0, 640, 480); }
-
-double iou(const cv::Rect2d& a, const cv::Rect2d& b) {
-  const double i = (a & b).area();
-  const double u = a.area() + b.area() - i;
-  return u > 0 ? i / u : 0;
-}
+cv::Rect2d clip(const cv::Rect2d& b) { return imt::test::clipToImage(b, cv::Size(640, 480)); }
+using imt::test::iou;
 
 cv::Rect2d truthBox(const nlohmann::json& truth, size_t frame, uint32_t id) {
   for (const auto& r : truth["frames"][frame]["regions"])

@@ -33,6 +33,9 @@ import time
 import numpy as np
 import yaml
 
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from evaluate import clip, iou  # noqa: E402  (the offline scorer's box metrics)
+
 STRIP_FRAMES = 6
 ADD_LAG_S = 0.5           # items are added this far in the past: the trackers catch up
 CARDS_PATCH_ID = 4        # cards preset: the static textured patch ...
@@ -166,20 +169,6 @@ def make_plan(truth, init):
 def pct(values, p):
     v = sorted(values)
     return v[int(p * (len(v) - 1))] if v else float("nan")
-
-
-def clip(b, w, h):
-    x0, y0 = max(0.0, b[0]), max(0.0, b[1])
-    x1, y1 = min(w, b[0] + b[2]), min(h, b[1] + b[3])
-    return [x0, y0, max(0.0, x1 - x0), max(0.0, y1 - y0)]
-
-
-def iou(a, b):
-    ix = max(0.0, min(a[0] + a[2], b[0] + b[2]) - max(a[0], b[0]))
-    iy = max(0.0, min(a[1] + a[3], b[1] + b[3]) - max(a[1], b[1]))
-    inter = ix * iy
-    union = a[2] * a[3] + b[2] * b[3] - inter
-    return inter / union if union > 0 else 0.0
 
 
 def score(truth, plan, rec):

@@ -1,6 +1,7 @@
 #include "instant_motion_tracking/core/anchor_manager.h"
 
 #include "instant_motion_tracking/core/anchor.h"
+#include "instant_motion_tracking/core/option_checker.h"
 
 #include <algorithm>
 #include <cmath>
@@ -8,13 +9,6 @@
 
 namespace imt {
 namespace {
-
-template <class T>
-std::string bad(const char* name, const char* what, const T& value) {
-  std::ostringstream os;
-  os << "anchors." << name << ": " << what << " (got " << value << ")";
-  return os.str();
-}
 
 std::string num(double v) {
   std::ostringstream os;
@@ -58,21 +52,18 @@ bool AnchorOptions::rotationCamImu(Eigen::Quaterniond* q) const {
 }
 
 std::string AnchorOptions::validate() const {
-  if (!(region_size > 0.01 && region_size <= 1.0))
-    return bad("region_size", "must be in (0.01, 1]", region_size);
-  if (!(default_depth > 0 && default_depth <= 1e4))
-    return bad("default_depth", "must be in (0, 10000] m", default_depth);
-  if (!(imu_wait_seconds >= 0 && imu_wait_seconds <= 10))
-    return bad("imu_wait_seconds", "must be in [0, 10]", imu_wait_seconds);
-  if (!(imu_reset_seconds > 0 && imu_reset_seconds <= 3600))
-    return bad("imu_reset_seconds", "must be in (0, 3600]", imu_reset_seconds);
-  if (surface != "horizontal" && surface != "facing")
-    return bad("surface", "must be horizontal or facing", "\"" + surface + "\"");
+  OptionChecker c("anchors");
+  c.check(region_size > 0.01 && region_size <= 1.0, "region_size", "must be in (0.01, 1]", region_size);
+  c.check(default_depth > 0 && default_depth <= 1e4, "default_depth", "must be in (0, 10000] m", default_depth);
+  c.inRange("imu_wait_seconds", imu_wait_seconds, 0.0, 10.0);
+  c.check(imu_reset_seconds > 0 && imu_reset_seconds <= 3600, "imu_reset_seconds", "must be in (0, 3600]",
+          imu_reset_seconds);
+  c.check(surface == "horizontal" || surface == "facing", "surface", "must be horizontal or facing",
+          "\"" + surface + "\"");
   Eigen::Quaterniond q;
-  if (!rotation_cam_imu.empty() && !rotationCamImu(&q))
-    return bad("rotation_cam_imu", "must be empty or \"qx qy qz qw\", a unit quaternion",
-               "\"" + rotation_cam_imu + "\"");
-  return "";
+  c.check(rotation_cam_imu.empty() || rotationCamImu(&q), "rotation_cam_imu",
+          "must be empty or \"qx qy qz qw\", a unit quaternion", "\"" + rotation_cam_imu + "\"");
+  return c.error();
 }
 
 AnchorManager::AnchorManager(const AnchorOptions& options, const ImuOptions& imu_options,

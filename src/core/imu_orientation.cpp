@@ -1,18 +1,13 @@
 #include "instant_motion_tracking/core/imu_orientation.h"
 
+#include "instant_motion_tracking/core/option_checker.h"
+
 #include <algorithm>
 #include <cmath>
 #include <sstream>
 
 namespace imt {
 namespace {
-
-template <class T>
-std::string bad(const char* name, const char* what, T value) {
-  std::ostringstream os;
-  os << "imu." << name << ": " << what << " (got " << value << ")";
-  return os.str();
-}
 
 std::string vec(const Eigen::Vector3d& v) {
   std::ostringstream os;
@@ -36,28 +31,22 @@ Eigen::Quaterniond quaternionExp(const Eigen::Vector3d& w) {
 }
 
 std::string ImuOptions::validate() const {
+  OptionChecker c("imu");
   for (const auto& [name, v] : {std::pair<const char*, double>{"gyro_bias_x", gyro_bias_x},
                                 {"gyro_bias_y", gyro_bias_y},
                                 {"gyro_bias_z", gyro_bias_z}})
-    if (!(std::isfinite(v) && std::abs(v) < 10)) return bad(name, "must be finite and |.| < 10 rad/s", v);
-  if (!(still_seconds >= 0.05 && still_seconds <= 3600))
-    return bad("still_seconds", "must be in [0.05, 3600]", still_seconds);
-  if (!(still_block_seconds >= 0 && still_block_seconds <= still_seconds))
-    return bad("still_block_seconds", "must be in [0, still_seconds]", still_block_seconds);
-  if (!(still_gyro_max > 0 && still_gyro_max <= 10))
-    return bad("still_gyro_max", "must be in (0, 10]", still_gyro_max);
-  if (!(still_gyro_tight > 0 && still_gyro_tight <= still_gyro_max))
-    return bad("still_gyro_tight", "must be in (0, still_gyro_max]", still_gyro_tight);
-  if (!(still_replace_seconds >= still_seconds && still_replace_seconds <= 3600))
-    return bad("still_replace_seconds", "must be in [still_seconds, 3600]", still_replace_seconds);
-  if (!(still_accel_max > 0 && still_accel_max <= 100))
-    return bad("still_accel_max", "must be in (0, 100]", still_accel_max);
-  if (!(gravity >= 1 && gravity <= 100)) return bad("gravity", "must be in [1, 100]", gravity);
-  if (!(window_seconds >= 0.1 && window_seconds <= 3600))
-    return bad("window_seconds", "must be in [0.1, 3600]", window_seconds);
-  if (!(max_gap_seconds > 0 && max_gap_seconds <= 10))
-    return bad("max_gap_seconds", "must be in (0, 10]", max_gap_seconds);
-  return "";
+    c.check(std::isfinite(v) && std::abs(v) < 10, name, "must be finite and |.| < 10 rad/s", v);
+  c.inRange("still_seconds", still_seconds, 0.05, 3600.0);
+  c.inRange("still_block_seconds", still_block_seconds, 0.0, still_seconds);
+  c.check(still_gyro_max > 0 && still_gyro_max <= 10, "still_gyro_max", "must be in (0, 10]", still_gyro_max);
+  c.check(still_gyro_tight > 0 && still_gyro_tight <= still_gyro_max, "still_gyro_tight",
+          "must be in (0, still_gyro_max]", still_gyro_tight);
+  c.inRange("still_replace_seconds", still_replace_seconds, still_seconds, 3600.0);
+  c.check(still_accel_max > 0 && still_accel_max <= 100, "still_accel_max", "must be in (0, 100]", still_accel_max);
+  c.inRange("gravity", gravity, 1.0, 100.0);
+  c.inRange("window_seconds", window_seconds, 0.1, 3600.0);
+  c.check(max_gap_seconds > 0 && max_gap_seconds <= 10, "max_gap_seconds", "must be in (0, 10]", max_gap_seconds);
+  return c.error();
 }
 
 ImuOrientation::ImuOrientation(const ImuOptions& options) : options_(options) {

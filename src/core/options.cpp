@@ -1,51 +1,14 @@
 #include "instant_motion_tracking/core/options.h"
 
+#include "instant_motion_tracking/core/option_checker.h"
+
 #include <cmath>
 #include <sstream>
 
 namespace imt {
-namespace {
-
-// Collects the first violated bound as "name: must be ... (got v)".
-class Checker {
- public:
-  explicit Checker(const char* scope) : scope_(scope) {}
-  template <class T>
-  void atLeast(const char* name, T value, T lo) {
-    if (!(value >= lo)) fail(name, "must be >= ", lo, value);
-  }
-  template <class T>
-  void inRange(const char* name, T value, T lo, T hi) {
-    if (!(value >= lo && value <= hi)) {
-      std::ostringstream os;
-      os << "must be in [" << lo << ", " << hi << "]";
-      failMsg(name, os.str(), value);
-    }
-  }
-  std::string error() const { return error_; }
-
- private:
-  template <class T>
-  void fail(const char* name, const char* what, T bound, T value) {
-    std::ostringstream os;
-    os << what << bound;
-    failMsg(name, os.str(), value);
-  }
-  template <class T>
-  void failMsg(const char* name, const std::string& what, T value) {
-    if (!error_.empty()) return;
-    std::ostringstream os;
-    os << scope_ << "." << name << ": " << what << " (got " << value << ")";
-    error_ = os.str();
-  }
-  const char* scope_;
-  std::string error_;
-};
-
-}  // namespace
 
 std::string MotionAnalysisOptions::validate() const {
-  Checker c("motion_analysis");
+  OptionChecker c("motion_analysis");
   c.atLeast("analysis_width", analysis_width, 0);
   if (analysis_width > 0) c.atLeast("analysis_width", analysis_width, 32);
   c.inRange("max_features", max_features, 8, 10000);
@@ -81,11 +44,11 @@ std::string MotionAnalysisOptions::validate() const {
 }
 
 std::string PipelineOptions::validate() const {
-  Checker c("");
+  OptionChecker c("");
   c.inRange("cache_seconds", cache_seconds, 0.0, 600.0);
   c.inRange("default_hfov_deg", default_hfov_deg, 1.0, 179.0);
   std::string e = c.error();
-  if (!e.empty()) return e.substr(1);  // drop the empty scope's dot
+  if (!e.empty()) return e;
   e = motion_analysis.validate();
   if (e.empty()) e = region_tracking.validate();
   if (e.empty()) e = planar_tracking.validate();

@@ -1,5 +1,7 @@
 #include "instant_motion_tracking/core/region_tracker.h"
 
+#include "instant_motion_tracking/core/option_checker.h"
+
 #include <Eigen/Dense>
 
 #include <algorithm>
@@ -146,30 +148,27 @@ RegionState RegionState::reversed() const {
 }
 
 std::string RegionTrackerOptions::validate() const {
-  std::ostringstream e;
-  auto check = [&](bool ok, const char* name) {
-    if (!ok && e.str().empty()) e << "region_tracking." << name << ": out of range";
-  };
-  check(min_dilation >= 0 && min_dilation <= 1, "min_dilation");
-  check(velocity_dilation >= 0 && velocity_dilation <= 20, "velocity_dilation");
-  check(irls_iterations >= 1 && irls_iterations <= 50, "irls_iterations");
-  check(error_floor > 0 && error_floor <= 10, "error_floor");
-  check(inlier_error > 0 && inlier_error <= 50, "inlier_error");
-  check(inlier_boost >= 1 && inlier_boost <= 1000, "inlier_boost");
-  check(outlier_cut > 0 && outlier_cut <= 1, "outlier_cut");
-  check(min_features >= 1, "min_features");
-  check(min_inliers_scale >= 3, "min_inliers_scale");
-  check(min_inliers_similarity >= 3, "min_inliers_similarity");
-  check(max_scale_change >= 0 && max_scale_change < 1, "max_scale_change");
-  check(max_rotation >= 0 && max_rotation < M_PI, "max_rotation");
-  check(velocity_blend >= 0 && velocity_blend < 1, "velocity_blend");
-  check(occlusion_ratio >= 0 && occlusion_ratio <= 1, "occlusion_ratio");
-  check(max_coast_frames >= 0, "max_coast_frames");
-  check(out_of_view_fraction >= 0 && out_of_view_fraction <= 1, "out_of_view_fraction");
-  check(lost_distance > 0, "lost_distance");
-  check(confidence_inliers >= 1, "confidence_inliers");
-  check(fallback_min_features >= 1, "fallback_min_features");
-  return e.str();
+  OptionChecker c("region_tracking");
+  c.inRange("min_dilation", min_dilation, 0.0, 1.0);
+  c.inRange("velocity_dilation", velocity_dilation, 0.0, 20.0);
+  c.inRange("irls_iterations", irls_iterations, 1, 50);
+  c.check(error_floor > 0 && error_floor <= 10, "error_floor", "must be in (0, 10]", error_floor);
+  c.check(inlier_error > 0 && inlier_error <= 50, "inlier_error", "must be in (0, 50]", inlier_error);
+  c.inRange("inlier_boost", inlier_boost, 1.0, 1000.0);
+  c.check(outlier_cut > 0 && outlier_cut <= 1, "outlier_cut", "must be in (0, 1]", outlier_cut);
+  c.atLeast("min_features", min_features, 1);
+  c.atLeast("min_inliers_scale", min_inliers_scale, 3);
+  c.atLeast("min_inliers_similarity", min_inliers_similarity, 3);
+  c.check(max_scale_change >= 0 && max_scale_change < 1, "max_scale_change", "must be in [0, 1)", max_scale_change);
+  c.check(max_rotation >= 0 && max_rotation < M_PI, "max_rotation", "must be in [0, pi)", max_rotation);
+  c.check(velocity_blend >= 0 && velocity_blend < 1, "velocity_blend", "must be in [0, 1)", velocity_blend);
+  c.inRange("occlusion_ratio", occlusion_ratio, 0.0, 1.0);
+  c.atLeast("max_coast_frames", max_coast_frames, 0.0);
+  c.inRange("out_of_view_fraction", out_of_view_fraction, 0.0, 1.0);
+  c.check(lost_distance > 0, "lost_distance", "must be > 0", lost_distance);
+  c.atLeast("confidence_inliers", confidence_inliers, 1.0);
+  c.atLeast("fallback_min_features", fallback_min_features, 1);
+  return c.error();
 }
 
 RegionState RegionTracker::step(const RegionState& state, const MotionData& md, Direction dir,

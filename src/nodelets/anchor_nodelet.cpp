@@ -134,8 +134,10 @@ void AnchorNodelet::motionCb(const instant_motion_tracking::MotionDataConstPtr& 
     return;
   }
   camera_frame_ = msg->header.frame_id;
-  // Time going back: the frames before the jump go first, in order.
-  if (!pending_.empty() && !(md.stamp > pending_.back().md.stamp)) flush(true);
+  // Time going back (a looping bag): the old stream's frames still waiting
+  // for the IMU are dropped, not published late; their tf would reach
+  // listeners after they cleared for the jump and be repeated by the new pass.
+  if (!pending_.empty() && !(md.stamp > pending_.back().md.stamp)) pending_.clear();
   pending_.push_back({msg->header, md, started});
   flush(false);
 }

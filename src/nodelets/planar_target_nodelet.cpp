@@ -93,6 +93,10 @@ void PlanarTargetNodelet::imageCb(const std_msgs::Header& header, const cv::Mat&
 
 void PlanarTargetNodelet::motionCb(const instant_motion_tracking::MotionDataConstPtr& msg) {
   std::lock_guard<std::mutex> lock(mutex_);
+  // Time going back (a looping bag): the old stream's frames still waiting
+  // are dropped, not published late; their tf would reach listeners after
+  // they cleared for the jump and be repeated by the new pass.
+  if (!pending_.empty() && !(msg->header.stamp > pending_.back().msg->header.stamp)) pending_.clear();
   pending_.push_back({msg, ros::WallTime::now()});
   flush(false);
 }

@@ -6,6 +6,7 @@
 #include <opencv2/video/tracking.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include <algorithm>
 #include <cmath>
 #include <sstream>
 
@@ -98,16 +99,6 @@ int imageLevelFor(double ratio) {
   return std::min(4, static_cast<int>(std::lround(std::log2(ratio))));
 }
 
-cv::Mat pyramidLevel(const cv::Mat& gray, int level) {
-  cv::Mat im = gray;
-  for (int l = 0; l < level; ++l) {
-    cv::Mat down;
-    cv::pyrDown(im, down);
-    im = down;
-  }
-  return im;
-}
-
 cv::Matx33d toMatx(const Eigen::Matrix3d& M) {
   cv::Matx33d m;
   for (int r = 0; r < 3; ++r)
@@ -115,17 +106,122 @@ cv::Matx33d toMatx(const Eigen::Matrix3d& M) {
   return m;
 }
 
-// `gray` sampled on the template grid through `M` (template px -> image px,
-// OpenCV), as CV_32F, and the mask of samples that fell inside the image.
-void sampleOnTemplate(const cv::Mat& gray, const Eigen::Matrix3d& M, cv::Size size, cv::Mat* out, cv::Mat* valid) {
+// Level `level` of the image pyramid of `gray` (each level pyrDown of the one
+// below) sampled on a grid of `size` through `M` (grid pixel, OpenCV -> our
+// pixel of the full image), as CV_32F, and the mask of samples that fell
+// inside the image. Only the part of the image under the grid (with a margin
+// for the filters) is reduced, so the cost follows the target's size on
+// screen rather than the frame's.
+void sampleImage(const cv::Mat& gray, int level, const Eigen::Matrix3d& M, cv::Size size, cv::Mat* out,
+                 cv::Mat* valid) {
+  const int s = 1 << level;
+  cv::Rect roi(0, 0, gray.cols, gray.rows);
+  double x0 = 1e18, y0 = 1e18, x1 = -1e18, y1 = -1e18;
+  bool bounded = true;
+  for (const Eigen::Vector2d& g : {Eigen::Vector2d(-0.5, -0.5), Eigen::Vector2d(size.width - 0.5, -0.5),
+                                  Eigen::Vector2d(size.width - 0.5, size.height - 0.5),
+                                  Eigen::Vector2d(-0.5, size.height - 0.5)}) {
+    const Eigen::Vector3d p = M * g.homogeneous();
+    if (!(p.z() > 1e-9)) {
+      bounded = false;  // the grid reaches the horizon: take the whole frame
+      break;
+    }
+    x0 = std::min(x0, p.x() / p.z());
+    x1 = std::max(x1, p.x() / p.z());
+    y0 = std::min(y0, p.y() / p.z());
+    y1 = std::max(y1, p.y() / p.z());
+  }
+  if (bounded) {
+    const double margin = 4.0 * s + 2;  // pyrDown's 5 taps per level, bilinear sampling
+    const auto lo = [&](double v, int hi) { return std::clamp(static_cast<int>(std::floor((v - margin) / s)) * s, 0, hi); };
+    const auto up = [&](double v, int hi) { return std::clamp(static_cast<int>(std::ceil((v + margin) / s)) * s, 0, hi); };
+    const int l = lo(x0, gray.cols), t = lo(y0, gray.rows);
+    roi = cv::Rect(l, t, up(x1, gray.cols) - l, up(y1, gray.rows) - t);
+  }
+  if (roi.width < s || roi.height < s) {  // entirely outside the frame
+    *out = cv::Mat::zeros(size, CV_32F);
+    *valid = cv::Mat::zeros(size, CV_8U);
+    return;
+  }
+  cv::Mat im = gray(roi);
+  for (int i = 0; i < level; ++i) {
+    cv::Mat down;
+    cv::pyrDown(im, down);
+    im = down;
+  }
+  Eigen::Matrix3d crop = Eigen::Matrix3d::Identity();
+  crop(0, 2) = -static_cast<double>(roi.x / s);
+  crop(1, 2) = -static_cast<double>(roi.y / s);
+  const cv::Matx33d W = toMatx(crop * toPyramidPixel(level) * M);
   cv::Mat warped;
-  cv::warpPerspective(gray, warped, toMatx(M), size, cv::INTER_LINEAR | cv::WARP_INVERSE_MAP,
-                      cv::BORDER_CONSTANT, 0);
+  cv::warpPerspective(im, warped, W, size, cv::INTER_LINEAR | cv::WARP_INVERSE_MAP, cv::BORDER_CONSTANT, 0);
   warped.convertTo(*out, CV_32F);
-  const cv::Mat ones(gray.size(), CV_8U, cv::Scalar(255));
-  cv::warpPerspective(ones, *valid, toMatx(M), size, cv::INTER_NEAREST | cv::WARP_INVERSE_MAP,
-                      cv::BORDER_CONSTANT, 0);
+  const cv::Mat ones(im.size(), CV_8U, cv::Scalar(255));
+  cv::warpPerspective(ones, *valid, W, size, cv::INTER_NEAREST | cv::WARP_INVERSE_MAP, cv::BORDER_CONSTANT, 0);
   cv::erode(*valid, *valid, cv::Mat());  // no bilinear samples mixing in the border
+}
+
+// The value below which a fraction `q` of `m`'s pixels under `mask` lie.
+float quantile(const cv::Mat& m, const cv::Mat& mask, double q) {
+  std::vector<float> v;
+  v.reserve(m.total());
+  for (int r = 0; r < m.rows; ++r) {
+    const float* pm = m.ptr<float>(r);
+    const uchar* pk = mask.ptr<uchar>(r);
+    for (int c = 0; c < m.cols; ++c)
+      if (pk[c]) v.push_back(pm[c]);
+  }
+  if (v.empty()) return 0;
+  const size_t k = std::min(v.size() - 1, static_cast<size_t>(q * v.size()));
+  std::nth_element(v.begin(), v.begin() + k, v.end());
+  return v[k];
+}
+
+// The pixels of `valid` where `aligned` (the frame on the template grid)
+// shows the template, i.e. without what covers it (an occluder, a
+// reflection). The photometric change is a gain and an offset, fitted to the
+// better half of the pixels (trimmed least squares: robust to up to half the
+// target covered). A pixel is an outlier when it is farther from that than
+// `k_sigma` times its expected error: the noise level, and on the template's
+// edges what a misalignment by `shift` px adds (`grad`: the template's
+// gradient magnitude). Where outliers are dense (more than half of a window
+// ~1/8 of the template) the template is taken as covered; isolated ones are
+// noise, not occluders.
+cv::Mat unoccludedPixels(const cv::Mat& tpl, const cv::Mat& grad, const cv::Mat& aligned, const cv::Mat& valid,
+                         double k_sigma, double shift) {
+  cv::Mat fit = valid.clone(), resid;
+  double sigma = 0;
+  for (int it = 0; it < 3; ++it) {
+    cv::Scalar mt, st, mi, si;
+    cv::meanStdDev(tpl, mt, st, fit);
+    cv::meanStdDev(aligned, mi, si, fit);
+    const double cov = cv::mean(tpl.mul(aligned), fit)[0] - mt[0] * mi[0];
+    const double gain = si[0] > 1e-3 ? cov / (si[0] * si[0]) : 1.0;
+    resid = cv::abs(tpl - (gain * aligned + (mt[0] - gain * mi[0])));
+    // The noise level from the best quarter (|N(0, s)| has its 25% quantile
+    // at 0.319 s), the next fit from the best half.
+    sigma = std::max(0.5, quantile(resid, valid, 0.25) / 0.319);
+    cv::bitwise_and(valid, resid <= quantile(resid, valid, 0.5), fit);
+  }
+  cv::Mat expected;
+  cv::magnitude(grad * shift, cv::Mat(grad.size(), CV_32F, cv::Scalar(sigma)), expected);
+  cv::Mat outliers = (resid > k_sigma * expected) & valid, dense;
+  const int win = std::max(3, std::min(tpl.cols, tpl.rows) / 8) | 1;
+  cv::boxFilter(outliers, dense, CV_32F, cv::Size(win, win), cv::Point(-1, -1), true, cv::BORDER_REPLICATE);
+  cv::Mat covered = dense > 0.5 * 255;
+  cv::dilate(covered, covered, cv::getStructuringElement(cv::MORPH_RECT, cv::Size(win, win)));
+  cv::Mat keep;
+  cv::bitwise_and(valid, ~covered, keep);
+  return keep;
+}
+
+// Gradient magnitude of `im` (intensity per pixel).
+cv::Mat gradientMagnitude(const cv::Mat& im) {
+  cv::Mat gx, gy, g;
+  cv::Sobel(im, gx, CV_32F, 1, 0, 3, 1.0 / 8);
+  cv::Sobel(im, gy, CV_32F, 0, 1, 3, 1.0 / 8);
+  cv::magnitude(gx, gy, g);
+  return g;
 }
 
 std::array<Eigen::Vector3d, 4> targetCorners(double w, double h) {
@@ -165,6 +261,7 @@ const char* targetStatusName(TargetStatus s) {
 struct PlanarTargetTracker::Appearance {
   std::vector<cv::Mat> levels;  // CV_32F
   std::vector<cv::Mat> masks;   // CV_8U, 255 where the frame saw the target
+  std::vector<cv::Mat> gradients;  // CV_32F, gradient magnitude of each level
   double px_per_m = 0;          // level-0 template pixels per metre
 };
 
@@ -178,6 +275,12 @@ std::string PlanarTargetOptions::validate() const {
   if (min_points < 4) return "planar_tracking.min_points: must be >= 4";
   if (!(confidence_points >= 1)) return "planar_tracking.confidence_points: must be >= 1";
   if (template_size < 32 || template_size > 2048) return "planar_tracking.template_size: must be in [32, 2048]";
+  if (refine_iterations < 1 || refine_iterations > 500) return "planar_tracking.refine_iterations: must be in [1, 500]";
+  if (!(refine_epsilon > 0)) return "planar_tracking.refine_epsilon: must be > 0";
+  if (!(refine_min_visible > 0 && refine_min_visible <= 1))
+    return "planar_tracking.refine_min_visible: must be in (0, 1]";
+  if (!(refine_outlier_sigma > 0)) return "planar_tracking.refine_outlier_sigma: must be > 0";
+  if (!(refine_max_step > 0)) return "planar_tracking.refine_max_step: must be > 0";
   if (!(refine_min_correlation > 0 && refine_min_correlation < 1))
     return "planar_tracking.refine_min_correlation: must be in (0, 1)";
   if (!(refine_max_correction > 0 && refine_max_correction <= 1))
@@ -322,7 +425,7 @@ void PlanarTargetTracker::addNewPoints(const MotionData& md) {
     }
     // Second observation: its first plane position must reproject here.
     const double err = (project({c->second.x(), c->second.y(), 0}) - Eigen::Vector2d(f.x, f.y)).norm();
-    if (err < options_.join_error) {
+    if (err < std::max(options_.join_error, 1.5 * residual_level_)) {
       model_[f.id] = 0.5 * (c->second + xy);
     } else {
       rejected[f.id] = true;  // off the plane or moving on its own
@@ -346,25 +449,48 @@ void PlanarTargetTracker::stepPerspective(const MotionData& md) {
     return;
   }
 
-  dropDisagreeingPoints(md);
+  dropDisagreeingPoints(md, false);
 }
 
 // Drops model points that disagree with the pose (occluders, off-plane, long
 // feature tracks that drifted); `points` and `rms_error` count the others.
-void PlanarTargetTracker::dropDisagreeingPoints(const MotionData& md) {
-  double sq = 0;
-  int inliers = 0;
+// "Disagree" is relative to how well the points fit at all: features measured
+// on a downscaled frame, or intrinsics that are only assumed, leave every point
+// a pixel or two off, and a fixed threshold would then drop good points one by
+// one. With `reanchor` (the pose comes from the appearance alignment, which
+// does not drift) the points that stay move on the plane to where they are
+// seen now, so the model follows its features' slow drift.
+void PlanarTargetTracker::dropDisagreeingPoints(const MotionData& md, bool reanchor) {
+  std::vector<std::pair<std::map<uint32_t, Eigen::Vector2d>::iterator, const FeatureMotion*>> seen;
+  std::vector<double> errors;
   for (const FeatureMotion& f : md.features) {
     const auto m = model_.find(f.id);
     if (m == model_.end()) continue;
-    const double e = (project({m->second.x(), m->second.y(), 0}) - Eigen::Vector2d(f.x, f.y)).norm();
-    if (e > options_.outlier_error) {
-      model_.erase(m);
-      rejected_[f.id] = true;
-    } else {
-      sq += e * e;
-      ++inliers;
+    seen.emplace_back(m, &f);
+    errors.push_back((project({m->second.x(), m->second.y(), 0}) - Eigen::Vector2d(f.x, f.y)).norm());
+  }
+  if (!errors.empty()) {
+    std::vector<double> sorted = errors;
+    std::nth_element(sorted.begin(), sorted.begin() + sorted.size() / 2, sorted.end());
+    // The median of a 2D Gaussian residual's norm is 1.18 sigma; smoothed
+    // over frames, since a few points give a noisy median.
+    const double level = sorted[sorted.size() / 2] / 1.18;
+    residual_level_ = residual_level_ > 0 ? 0.8 * residual_level_ + 0.2 * level : level;
+  }
+  const double limit = std::max(options_.outlier_error, 3.0 * residual_level_);
+  double sq = 0;
+  int inliers = 0;
+  for (size_t i = 0; i < seen.size(); ++i) {
+    const double e = errors[i];
+    if (e > limit) {
+      rejected_[seen[i].first->first] = true;
+      model_.erase(seen[i].first);
+      continue;
     }
+    sq += e * e;
+    ++inliers;
+    Eigen::Vector2d xy;
+    if (reanchor && backProject({seen[i].second->x, seen[i].second->y}, &xy)) seen[i].first->second = xy;
   }
   state_.points = inliers;
   state_.rms_error = inliers ? std::sqrt(sq / inliers) : 0;
@@ -402,8 +528,7 @@ bool PlanarTargetTracker::captureAppearance(const cv::Mat& gray) {
   a->px_per_m = W / w;
   const int li = imageLevelFor(seen / long_px);
   cv::Mat tpl, valid;
-  sampleOnTemplate(pyramidLevel(gray, li), toPyramidPixel(li) * planeToImage() * templateToPlane(a->px_per_m, 0, w, h),
-                   cv::Size(W, H), &tpl, &valid);
+  sampleImage(gray, li, planeToImage() * templateToPlane(a->px_per_m, 0, w, h), cv::Size(W, H), &tpl, &valid);
   cv::Scalar mean, stddev;
   cv::meanStdDev(tpl, mean, stddev, valid);
   if (cv::countNonZero(valid) < 0.5 * W * H || stddev[0] < 2.0) return false;  // mostly unseen, or featureless
@@ -417,6 +542,7 @@ bool PlanarTargetTracker::captureAppearance(const cv::Mat& gray) {
     a->levels.push_back(down);
     a->masks.push_back(mask);
   }
+  for (const cv::Mat& l : a->levels) a->gradients.push_back(gradientMagnitude(l));
   appearance_ = std::move(a);
   return true;
 }
@@ -424,10 +550,15 @@ bool PlanarTargetTracker::captureAppearance(const cv::Mat& gray) {
 // Aligns the appearance at placement with `gray` by ECC (OpenCV's
 // findTransformECC, a homography on the rectified target, coarse to fine),
 // starting from the current pose, then fits the rigid pose to the aligned
-// plane. The alignment is used only when it correlates well and corrects the
-// pose by a plausible amount (an occluder or a wrong basin does neither).
+// plane. Whatever covers part of the target (an occluder) is masked out: after
+// each alignment the template pixels the frame does not explain are found
+// (unoccludedPixels) and, when they changed, the alignment is redone from the
+// same start without them, so an occluder cannot drag the target. The
+// alignment is used only when enough of the target is seen, it correlates
+// well and it corrects the pose by a plausible amount.
 bool PlanarTargetTracker::refine(const cv::Mat& gray) {
   state_.correlation = 0;
+  state_.visible = 0;
   if (gray.empty() || gray.type() != CV_8UC1) return false;
   if (!appearance_) {
     captureAppearance(gray);
@@ -439,30 +570,54 @@ bool PlanarTargetTracker::refine(const cv::Mat& gray) {
   const double r0 = seen / std::max(a.levels[0].cols, a.levels[0].rows);  // image px per level-0 template px
   const int top = static_cast<int>(a.levels.size()) - 1;
   const int lt = r0 >= 1 ? 0 : std::min(top, static_cast<int>(std::lround(std::log2(1 / r0))));
+  const cv::TermCriteria criteria(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, options_.refine_iterations,
+                                  options_.refine_epsilon);
   Eigen::Matrix3d G = planeToImage();
-  double cc = 0;
+  cv::Mat keep;  // template pixels (current level) not covered by anything
+  double cc = 0, visible = 0;
   for (int l = std::min(top, lt + 1); l >= lt; --l) {
     const int li = imageLevelFor(r0 * (1 << l));
     const Eigen::Matrix3d A = templateToPlane(a.px_per_m, l, w, h);
+    const cv::Mat& tpl = a.levels[l];
     cv::Mat warped, valid;
-    sampleOnTemplate(pyramidLevel(gray, li), toPyramidPixel(li) * G * A, a.levels[l].size(), &warped, &valid);
+    sampleImage(gray, li, G * A, tpl.size(), &warped, &valid);
     cv::bitwise_and(valid, a.masks[l], valid);
-    if (cv::countNonZero(valid) < 0.25 * valid.total()) return false;  // mostly outside the frame
-    cv::Mat warp = cv::Mat::eye(3, 3, CV_32F);
-    try {
-      cc = cv::findTransformECC(a.levels[l], warped, warp, cv::MOTION_HOMOGRAPHY,
-                                cv::TermCriteria(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, 30, 1e-4),
-                                valid, 5);
-    } catch (const cv::Exception&) {
-      return false;  // did not converge (uncorrelated images)
+    const int n_valid = cv::countNonZero(valid);
+    if (n_valid < 0.25 * valid.total()) return false;  // mostly outside the frame
+    if (keep.empty()) {  // what covers the target where it is predicted
+      keep = unoccludedPixels(tpl, a.gradients[l], warped, valid, options_.refine_outlier_sigma, 2.0);
+    } else {
+      cv::resize(keep, keep, tpl.size(), 0, 0, cv::INTER_NEAREST);
+      cv::bitwise_and(keep, valid, keep);
     }
+    cv::Mat warp;
+    for (int round = 0; round < 3; ++round) {
+      warp = cv::Mat::eye(3, 3, CV_32F);
+      if (cv::countNonZero(keep) < 0.1 * valid.total()) return false;  // hardly anything left to align
+      try {
+        cc = cv::findTransformECC(tpl, warped, warp, cv::MOTION_HOMOGRAPHY, criteria, keep, 5);
+      } catch (const cv::Exception&) {
+      return false;  // did not converge (uncorrelated images)
+      }
+      cv::Mat aligned, aligned_valid;
+      cv::warpPerspective(warped, aligned, warp, tpl.size(), cv::INTER_LINEAR | cv::WARP_INVERSE_MAP);
+      cv::warpPerspective(valid, aligned_valid, warp, tpl.size(), cv::INTER_NEAREST | cv::WARP_INVERSE_MAP);
+      cv::bitwise_and(aligned_valid, valid, aligned_valid);
+      const cv::Mat now =
+          unoccludedPixels(tpl, a.gradients[l], aligned, aligned_valid, options_.refine_outlier_sigma, 0.5);
+      // Realigned only when a real part of the target turned out covered.
+      const int newly_covered = cv::countNonZero(keep & ~now);
+      keep = now;
+      if (newly_covered < 0.05 * n_valid) break;
+    }
+    visible = static_cast<double>(cv::countNonZero(keep)) / n_valid;
     Eigen::Matrix3d C;
     for (int r = 0; r < 3; ++r)
       for (int c = 0; c < 3; ++c) C(r, c) = warp.at<float>(r, c);
     if (!C.allFinite()) return false;
     G = G * A * C * A.inverse();
   }
-  if (!(cc >= options_.refine_min_correlation)) return false;
+  if (!(cc >= options_.refine_min_correlation) || !(visible >= options_.refine_min_visible)) return false;
   // The aligned plane, seen through a grid of points, gives the rigid pose.
   std::vector<PlaneObservation> grid;
   double correction = 0;
@@ -476,11 +631,16 @@ bool PlanarTargetTracker::refine(const cv::Mat& gray) {
         correction = std::max(correction, (grid.back().uv - project({xy.x(), xy.y(), 0})).norm());
     }
   }
-  if (correction > options_.refine_max_correction * seen + 1.0) return false;
+  // A target aligned on the last frame moves little from where the features
+  // or the camera motion put it; the longer it went unaligned, the farther.
+  const double allowed =
+      std::min(options_.refine_max_correction, options_.refine_max_step * (1 + frames_unaligned_));
+  if (correction > allowed * seen + 1.0) return false;
   Eigen::Isometry3d T = state_.T_cam_target;
   if (!fitPose(grid, k_, 0, options_.max_iterations, &T)) return false;
   state_.T_cam_target = T;
   state_.correlation = cc;
+  state_.visible = visible;
   return true;
 }
 
@@ -534,6 +694,7 @@ const PlanarTargetState& PlanarTargetTracker::step(const MotionData& md, const E
                                                    bool H_valid, const cv::Mat& gray) {
   state_.stamp = md.stamp;
   state_.correlation = 0;
+  state_.visible = 0;
   if (state_.status == TargetStatus::kLost) return state_;
   const bool perspective = options_.model == "perspective";
   if (perspective) {
@@ -546,10 +707,12 @@ const PlanarTargetState& PlanarTargetTracker::step(const MotionData& md, const E
   if (!measured && H_valid && H_last_to_this.allFinite()) predict(H_last_to_this);
   if (perspective && options_.refine && !gray.empty() &&
       fractionInside(state_.corners, md.width, md.height) > 0.2 && refine(gray)) {
+    frames_unaligned_ = 0;
     projectCorners();
-    dropDisagreeingPoints(md);
+    dropDisagreeingPoints(md, true);
     measured = true;
   }
+  if (state_.correlation == 0) ++frames_unaligned_;
   // Back in view after a prediction: features inside the predicted quad
   // become candidates, and the rigid fit takes over once enough join.
   if (measured || fractionInside(state_.corners, md.width, md.height) > 0.05) addNewPoints(md);

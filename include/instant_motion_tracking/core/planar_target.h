@@ -37,14 +37,19 @@ struct PlanarTargetOptions {
   std::string model = "perspective";  // perspective (rigid 6DoF pose, LM) | homography (chained, for comparison)
   double loss_scale = 1.5;            // px; Huber loss scale of the reprojection residuals
   int max_iterations = 20;            // LM iterations per frame
-  double outlier_error = 3.0;         // px; model points reprojecting worse than this are dropped
-  double join_error = 1.0;            // px; a new point joins when its second observation agrees this well
+  double outlier_error = 3.0;         // px; model points reprojecting worse than this (and 3x the points' noise level) are dropped
+  double join_error = 1.0;            // px; a new point joins when its second observation agrees this well (or within 1.5x the points' noise level)
   int min_points = 6;                 // fewer model points visible: predicted by the camera motion
   double confidence_points = 30;      // model points at which confidence reaches 1
   bool refine = true;                 // align the target's look at placement with each frame (ECC)
   int template_size = 256;            // px; long side of the rectified template kept at placement
   double refine_min_correlation = 0.75;  // ECC correlation below which an alignment is not used
   double refine_max_correction = 0.15;   // fraction of the target's size on screen; larger corrections are not used
+  double refine_max_step = 0.06;         // the same for a target aligned on the last frame; grows by this per unaligned frame
+  int refine_iterations = 30;            // ECC iterations per pyramid level at most
+  double refine_epsilon = 1e-4;          // ECC stops when the correlation changes less than this
+  double refine_min_visible = 0.35;      // fraction of the target (in view) that must be seen uncovered to align
+  double refine_outlier_sigma = 3.0;     // noise levels by which a covered (occluded) template pixel differs
   double image_memory_mb = 512;       // MB of gray frames kept for the alignment (oldest dropped first)
 
   template <class V>
@@ -52,8 +57,9 @@ struct PlanarTargetOptions {
     v("model", model, "perspective (rigid 6DoF pose, LM) | homography (chained, for comparison)");
     v("loss_scale", loss_scale, "px; Huber loss scale of the reprojection residuals");
     v("max_iterations", max_iterations, "LM iterations per frame");
-    v("outlier_error", outlier_error, "px; model points reprojecting worse are dropped");
-    v("join_error", join_error, "px; a new point joins when its second observation agrees this well");
+    v("outlier_error", outlier_error, "px; model points reprojecting worse (and 3x the points' noise level) are dropped");
+    v("join_error", join_error,
+      "px; a new point joins when its second observation agrees this well (or within 1.5x the points' noise level)");
     v("min_points", min_points, "fewer model points visible: predicted by the camera motion");
     v("confidence_points", confidence_points, "model points at which confidence reaches 1");
     v("refine", refine, "align the target's look at placement with each frame (ECC): no drift");
@@ -61,6 +67,14 @@ struct PlanarTargetOptions {
     v("refine_min_correlation", refine_min_correlation, "ECC correlation below which an alignment is not used");
     v("refine_max_correction", refine_max_correction,
       "fraction of the target's size on screen; larger corrections are not used");
+    v("refine_max_step", refine_max_step,
+      "the same for a target aligned on the last frame; grows by this per unaligned frame");
+    v("refine_iterations", refine_iterations, "ECC iterations per pyramid level at most");
+    v("refine_epsilon", refine_epsilon, "ECC stops when the correlation changes less than this");
+    v("refine_min_visible", refine_min_visible,
+      "fraction of the target (in view) that must be seen uncovered to align");
+    v("refine_outlier_sigma", refine_outlier_sigma,
+      "noise levels by which a covered (occluded) template pixel differs");
     v("image_memory_mb", image_memory_mb, "MB of gray frames kept for the alignment (oldest dropped first)");
   }
   std::string validate() const;
@@ -80,6 +94,7 @@ struct PlanarTargetState {
   int points = 0;          // model points that supported this frame's pose
   double rms_error = 0;    // px, reprojection RMS of those points
   double correlation = 0;  // ECC correlation of the appearance alignment (0: not aligned this frame)
+  double visible = 0;      // fraction of the target in view that the alignment saw uncovered (0: not aligned)
   std::string reason;      // why lost
 };
 
@@ -126,7 +141,7 @@ class PlanarTargetTracker {
   Eigen::Matrix3d planeToImage() const;
   bool captureAppearance(const cv::Mat& gray);
   bool refine(const cv::Mat& gray);
-  void dropDisagreeingPoints(const MotionData& md);
+  void dropDisagreeingPoints(const MotionData& md, bool reanchor);
 
   PlanarTargetOptions options_;
   CameraIntrinsics k_;
@@ -135,6 +150,8 @@ class PlanarTargetTracker {
   std::map<uint32_t, Eigen::Vector2d> candidates_;  // first observation, awaiting confirmation
   std::map<uint32_t, bool> rejected_;               // ids that must not join again
   std::map<uint32_t, Eigen::Vector2d> last_px_;     // last frame's positions (homography model)
+  double residual_level_ = 0;                      // px, smoothed noise level of the model points' residuals
+  int frames_unaligned_ = 0;                       // frames since the appearance alignment was last used
   std::shared_ptr<const Appearance> appearance_;    // shared by copies (forward/backward)
 };
 

@@ -3,8 +3,8 @@
 #include <ceres/ceres.h>
 #include <ceres/rotation.h>
 #include <opencv2/calib3d.hpp>
-#include <opencv2/video/tracking.hpp>
 #include <opencv2/imgproc.hpp>
+#include <opencv2/video/tracking.hpp>
 
 #include <algorithm>
 #include <cmath>
@@ -112,15 +112,16 @@ cv::Matx33d toMatx(const Eigen::Matrix3d& M) {
 // inside the image. Only the part of the image under the grid (with a margin
 // for the filters) is reduced, so the cost follows the target's size on
 // screen rather than the frame's.
-void sampleImage(const cv::Mat& gray, int level, const Eigen::Matrix3d& M, cv::Size size, cv::Mat* out,
-                 cv::Mat* valid) {
+void sampleImage(const cv::Mat& gray, int level, const Eigen::Matrix3d& M, cv::Size size,
+                 cv::Mat* out, cv::Mat* valid) {
   const int s = 1 << level;
   cv::Rect roi(0, 0, gray.cols, gray.rows);
   double x0 = 1e18, y0 = 1e18, x1 = -1e18, y1 = -1e18;
   bool bounded = true;
-  for (const Eigen::Vector2d& g : {Eigen::Vector2d(-0.5, -0.5), Eigen::Vector2d(size.width - 0.5, -0.5),
-                                  Eigen::Vector2d(size.width - 0.5, size.height - 0.5),
-                                  Eigen::Vector2d(-0.5, size.height - 0.5)}) {
+  for (const Eigen::Vector2d& g :
+       {Eigen::Vector2d(-0.5, -0.5), Eigen::Vector2d(size.width - 0.5, -0.5),
+        Eigen::Vector2d(size.width - 0.5, size.height - 0.5),
+        Eigen::Vector2d(-0.5, size.height - 0.5)}) {
     const Eigen::Vector3d p = M * g.homogeneous();
     if (!(p.z() > 1e-9)) {
       bounded = false;  // the grid reaches the horizon: take the whole frame
@@ -133,8 +134,12 @@ void sampleImage(const cv::Mat& gray, int level, const Eigen::Matrix3d& M, cv::S
   }
   if (bounded) {
     const double margin = 4.0 * s + 2;  // pyrDown's 5 taps per level, bilinear sampling
-    const auto lo = [&](double v, int hi) { return std::clamp(static_cast<int>(std::floor((v - margin) / s)) * s, 0, hi); };
-    const auto up = [&](double v, int hi) { return std::clamp(static_cast<int>(std::ceil((v + margin) / s)) * s, 0, hi); };
+    const auto lo = [&](double v, int hi) {
+      return std::clamp(static_cast<int>(std::floor((v - margin) / s)) * s, 0, hi);
+    };
+    const auto up = [&](double v, int hi) {
+      return std::clamp(static_cast<int>(std::ceil((v + margin) / s)) * s, 0, hi);
+    };
     const int l = lo(x0, gray.cols), t = lo(y0, gray.rows);
     roi = cv::Rect(l, t, up(x1, gray.cols) - l, up(y1, gray.rows) - t);
   }
@@ -154,10 +159,12 @@ void sampleImage(const cv::Mat& gray, int level, const Eigen::Matrix3d& M, cv::S
   crop(1, 2) = -static_cast<double>(roi.y / s);
   const cv::Matx33d W = toMatx(crop * toPyramidPixel(level) * M);
   cv::Mat warped;
-  cv::warpPerspective(im, warped, W, size, cv::INTER_LINEAR | cv::WARP_INVERSE_MAP, cv::BORDER_CONSTANT, 0);
+  cv::warpPerspective(im, warped, W, size, cv::INTER_LINEAR | cv::WARP_INVERSE_MAP,
+                      cv::BORDER_CONSTANT, 0);
   warped.convertTo(*out, CV_32F);
   const cv::Mat ones(im.size(), CV_8U, cv::Scalar(255));
-  cv::warpPerspective(ones, *valid, W, size, cv::INTER_NEAREST | cv::WARP_INVERSE_MAP, cv::BORDER_CONSTANT, 0);
+  cv::warpPerspective(ones, *valid, W, size, cv::INTER_NEAREST | cv::WARP_INVERSE_MAP,
+                      cv::BORDER_CONSTANT, 0);
   cv::erode(*valid, *valid, cv::Mat());  // no bilinear samples mixing in the border
 }
 
@@ -187,8 +194,8 @@ float quantile(const cv::Mat& m, const cv::Mat& mask, double q) {
 // gradient magnitude). Where outliers are dense (more than half of a window
 // ~1/8 of the template) the template is taken as covered; isolated ones are
 // noise, not occluders.
-cv::Mat unoccludedPixels(const cv::Mat& tpl, const cv::Mat& grad, const cv::Mat& aligned, const cv::Mat& valid,
-                         double k_sigma, double shift) {
+cv::Mat unoccludedPixels(const cv::Mat& tpl, const cv::Mat& grad, const cv::Mat& aligned,
+                         const cv::Mat& valid, double k_sigma, double shift) {
   cv::Mat fit = valid.clone(), resid;
   double sigma = 0;
   for (int it = 0; it < 3; ++it) {
@@ -207,7 +214,8 @@ cv::Mat unoccludedPixels(const cv::Mat& tpl, const cv::Mat& grad, const cv::Mat&
   cv::magnitude(grad * shift, cv::Mat(grad.size(), CV_32F, cv::Scalar(sigma)), expected);
   cv::Mat outliers = (resid > k_sigma * expected) & valid, dense;
   const int win = std::max(3, std::min(tpl.cols, tpl.rows) / 8) | 1;
-  cv::boxFilter(outliers, dense, CV_32F, cv::Size(win, win), cv::Point(-1, -1), true, cv::BORDER_REPLICATE);
+  cv::boxFilter(outliers, dense, CV_32F, cv::Size(win, win), cv::Point(-1, -1), true,
+                cv::BORDER_REPLICATE);
   cv::Mat covered = dense > 0.5 * 255;
   cv::dilate(covered, covered, cv::getStructuringElement(cv::MORPH_RECT, cv::Size(win, win)));
   cv::Mat keep;
@@ -236,7 +244,8 @@ double quadArea(const std::array<cv::Point2d, 4>& c) {
 }
 
 double fractionInside(const std::array<cv::Point2d, 4>& c, int w, int h) {
-  std::vector<cv::Point2f> quad, img = {{0, 0}, {float(w), 0}, {float(w), float(h)}, {0, float(h)}}, inter;
+  std::vector<cv::Point2f> quad, img = {{0, 0}, {float(w), 0}, {float(w), float(h)}, {0, float(h)}},
+                                 inter;
   for (const auto& p : c) quad.emplace_back(static_cast<float>(p.x), static_cast<float>(p.y));
   if (quadArea(c) < 0) std::reverse(quad.begin(), quad.end());
   const double area = std::abs(quadArea(c));
@@ -249,9 +258,12 @@ double fractionInside(const std::array<cv::Point2d, 4>& c, int w, int h) {
 
 const char* targetStatusName(TargetStatus s) {
   switch (s) {
-    case TargetStatus::kTracked: return "tracked";
-    case TargetStatus::kOutOfView: return "out_of_view";
-    case TargetStatus::kLost: break;
+    case TargetStatus::kTracked:
+      return "tracked";
+    case TargetStatus::kOutOfView:
+      return "out_of_view";
+    case TargetStatus::kLost:
+      break;
   }
   return "lost";
 }
@@ -259,23 +271,26 @@ const char* targetStatusName(TargetStatus s) {
 // The target as seen at placement, rectified onto its plane: a pyramid of
 // templates (level l has 2^-l the resolution of level 0) and their masks.
 struct PlanarTargetTracker::Appearance {
-  std::vector<cv::Mat> levels;  // CV_32F
-  std::vector<cv::Mat> masks;   // CV_8U, 255 where the frame saw the target
+  std::vector<cv::Mat> levels;     // CV_32F
+  std::vector<cv::Mat> masks;      // CV_8U, 255 where the frame saw the target
   std::vector<cv::Mat> gradients;  // CV_32F, gradient magnitude of each level
-  double px_per_m = 0;          // level-0 template pixels per metre
+  double px_per_m = 0;             // level-0 template pixels per metre
 };
 
 std::string PlanarTargetOptions::validate() const {
   if (model != "perspective" && model != "homography")
     return "planar_tracking.model: must be perspective or homography (got '" + model + "')";
   if (!(loss_scale > 0)) return "planar_tracking.loss_scale: must be > 0";
-  if (max_iterations < 1 || max_iterations > 200) return "planar_tracking.max_iterations: must be in [1, 200]";
+  if (max_iterations < 1 || max_iterations > 200)
+    return "planar_tracking.max_iterations: must be in [1, 200]";
   if (!(outlier_error > 0)) return "planar_tracking.outlier_error: must be > 0";
   if (!(join_error > 0)) return "planar_tracking.join_error: must be > 0";
   if (min_points < 4) return "planar_tracking.min_points: must be >= 4";
   if (!(confidence_points >= 1)) return "planar_tracking.confidence_points: must be >= 1";
-  if (template_size < 32 || template_size > 2048) return "planar_tracking.template_size: must be in [32, 2048]";
-  if (refine_iterations < 1 || refine_iterations > 500) return "planar_tracking.refine_iterations: must be in [1, 500]";
+  if (template_size < 32 || template_size > 2048)
+    return "planar_tracking.template_size: must be in [32, 2048]";
+  if (refine_iterations < 1 || refine_iterations > 500)
+    return "planar_tracking.refine_iterations: must be in [1, 500]";
   if (!(refine_epsilon > 0)) return "planar_tracking.refine_epsilon: must be > 0";
   if (!(refine_min_visible > 0 && refine_min_visible <= 1))
     return "planar_tracking.refine_min_visible: must be in (0, 1]";
@@ -285,16 +300,19 @@ std::string PlanarTargetOptions::validate() const {
     return "planar_tracking.refine_min_correlation: must be in (0, 1)";
   if (!(refine_max_correction > 0 && refine_max_correction <= 1))
     return "planar_tracking.refine_max_correction: must be in (0, 1]";
-  if (!(image_memory_mb >= 0 && image_memory_mb <= 1e6)) return "planar_tracking.image_memory_mb: must be >= 0";
+  if (!(image_memory_mb >= 0 && image_memory_mb <= 1e6))
+    return "planar_tracking.image_memory_mb: must be >= 0";
   return "";
 }
 
 std::string validateQuad(const std::array<cv::Point2d, 4>& c) {
   for (const auto& p : c)
-    if (!std::isfinite(p.x) || !std::isfinite(p.y)) return "corner with a NaN or infinite coordinate";
+    if (!std::isfinite(p.x) || !std::isfinite(p.y))
+      return "corner with a NaN or infinite coordinate";
   for (int i = 0; i < 4; ++i)
     for (int j = i + 1; j < 4; ++j)
-      if (cv::norm(c[i] - c[j]) < 2.0) return "corners " + std::to_string(i) + " and " + std::to_string(j) + " coincide";
+      if (cv::norm(c[i] - c[j]) < 2.0)
+        return "corners " + std::to_string(i) + " and " + std::to_string(j) + " coincide";
   int sign = 0;
   for (int i = 0; i < 4; ++i) {
     const cv::Point2d a = c[(i + 1) % 4] - c[i], b = c[(i + 2) % 4] - c[(i + 1) % 4];
@@ -308,10 +326,12 @@ std::string validateQuad(const std::array<cv::Point2d, 4>& c) {
   return "";
 }
 
-std::string validateTargetRequest(const std::array<cv::Point2d, 4>& corners, double width_m, double height_m) {
+std::string validateTargetRequest(const std::array<cv::Point2d, 4>& corners, double width_m,
+                                  double height_m) {
   if (std::string e = validateQuad(corners); !e.empty()) return e;
   if (!(width_m > 0) || !(height_m > 0) || !std::isfinite(width_m) || !std::isfinite(height_m))
-    return "target size must be positive (got " + std::to_string(width_m) + " x " + std::to_string(height_m) + " m)";
+    return "target size must be positive (got " + std::to_string(width_m) + " x " +
+           std::to_string(height_m) + " m)";
   return "";
 }
 
@@ -346,7 +366,8 @@ std::unique_ptr<PlanarTargetTracker> PlanarTargetTracker::create(
   // Every feature inside the quad now lies on the target plane.
   for (const FeatureMotion& f : md.features) {
     Eigen::Vector2d xy;
-    if (cv::pointPolygonTest(std::vector<cv::Point2f>(corners.begin(), corners.end()), cv::Point2f(f.x, f.y), false) > 0 &&
+    if (cv::pointPolygonTest(std::vector<cv::Point2f>(corners.begin(), corners.end()),
+                             cv::Point2f(f.x, f.y), false) > 0 &&
         t->backProject({f.x, f.y}, &xy))
       t->model_[f.id] = xy;
   }
@@ -359,7 +380,8 @@ std::unique_ptr<PlanarTargetTracker> PlanarTargetTracker::create(
 
 bool PlanarTargetTracker::poseFromCorners(const std::array<cv::Point2d, 4>& corners) {
   std::vector<cv::Point3d> obj;
-  for (const auto& p : targetCorners(state_.width_m, state_.height_m)) obj.emplace_back(p.x(), p.y(), p.z());
+  for (const auto& p : targetCorners(state_.width_m, state_.height_m))
+    obj.emplace_back(p.x(), p.y(), p.z());
   const std::vector<cv::Point2d> img(corners.begin(), corners.end());
   const cv::Matx33d K(k_.fx, 0, k_.cx, 0, k_.fy, k_.cy, 0, 0, 1);
   cv::Vec3d rvec, tvec;
@@ -424,7 +446,8 @@ void PlanarTargetTracker::addNewPoints(const MotionData& md) {
       continue;
     }
     // Second observation: its first plane position must reproject here.
-    const double err = (project({c->second.x(), c->second.y(), 0}) - Eigen::Vector2d(f.x, f.y)).norm();
+    const double err =
+        (project({c->second.x(), c->second.y(), 0}) - Eigen::Vector2d(f.x, f.y)).norm();
     if (err < std::max(options_.join_error, 1.5 * residual_level_)) {
       model_[f.id] = 0.5 * (c->second + xy);
     } else {
@@ -467,7 +490,8 @@ void PlanarTargetTracker::dropDisagreeingPoints(const MotionData& md, bool reanc
     const auto m = model_.find(f.id);
     if (m == model_.end()) continue;
     seen.emplace_back(m, &f);
-    errors.push_back((project({m->second.x(), m->second.y(), 0}) - Eigen::Vector2d(f.x, f.y)).norm());
+    errors.push_back(
+        (project({m->second.x(), m->second.y(), 0}) - Eigen::Vector2d(f.x, f.y)).norm());
   }
   if (!errors.empty()) {
     std::vector<double> sorted = errors;
@@ -490,14 +514,16 @@ void PlanarTargetTracker::dropDisagreeingPoints(const MotionData& md, bool reanc
     sq += e * e;
     ++inliers;
     Eigen::Vector2d xy;
-    if (reanchor && backProject({seen[i].second->x, seen[i].second->y}, &xy)) seen[i].first->second = xy;
+    if (reanchor && backProject({seen[i].second->x, seen[i].second->y}, &xy))
+      seen[i].first->second = xy;
   }
   state_.points = inliers;
   state_.rms_error = inliers ? std::sqrt(sq / inliers) : 0;
 }
 
 Eigen::Matrix3d PlanarTargetTracker::planeToImage() const {
-  const Eigen::Matrix3d K = (Eigen::Matrix3d() << k_.fx, 0, k_.cx, 0, k_.fy, k_.cy, 0, 0, 1).finished();
+  const Eigen::Matrix3d K =
+      (Eigen::Matrix3d() << k_.fx, 0, k_.cx, 0, k_.fy, k_.cy, 0, 0, 1).finished();
   Eigen::Matrix3d Rt;
   Rt.col(0) = state_.T_cam_target.linear().col(0);
   Rt.col(1) = state_.T_cam_target.linear().col(1);
@@ -528,10 +554,12 @@ bool PlanarTargetTracker::captureAppearance(const cv::Mat& gray) {
   a->px_per_m = W / w;
   const int li = imageLevelFor(seen / long_px);
   cv::Mat tpl, valid;
-  sampleImage(gray, li, planeToImage() * templateToPlane(a->px_per_m, 0, w, h), cv::Size(W, H), &tpl, &valid);
+  sampleImage(gray, li, planeToImage() * templateToPlane(a->px_per_m, 0, w, h), cv::Size(W, H),
+              &tpl, &valid);
   cv::Scalar mean, stddev;
   cv::meanStdDev(tpl, mean, stddev, valid);
-  if (cv::countNonZero(valid) < 0.5 * W * H || stddev[0] < 2.0) return false;  // mostly unseen, or featureless
+  if (cv::countNonZero(valid) < 0.5 * W * H || stddev[0] < 2.0)
+    return false;  // mostly unseen, or featureless
   a->levels.push_back(tpl);
   a->masks.push_back(valid);
   while (std::min(a->levels.back().cols, a->levels.back().rows) >= 48 && a->levels.size() < 5) {
@@ -567,11 +595,12 @@ bool PlanarTargetTracker::refine(const cv::Mat& gray) {
   const Appearance& a = *appearance_;
   const double w = state_.width_m, h = state_.height_m;
   const double seen = longestEdge(state_.corners);
-  const double r0 = seen / std::max(a.levels[0].cols, a.levels[0].rows);  // image px per level-0 template px
+  const double r0 =
+      seen / std::max(a.levels[0].cols, a.levels[0].rows);  // image px per level-0 template px
   const int top = static_cast<int>(a.levels.size()) - 1;
   const int lt = r0 >= 1 ? 0 : std::min(top, static_cast<int>(std::lround(std::log2(1 / r0))));
-  const cv::TermCriteria criteria(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, options_.refine_iterations,
-                                  options_.refine_epsilon);
+  const cv::TermCriteria criteria(cv::TermCriteria::COUNT | cv::TermCriteria::EPS,
+                                  options_.refine_iterations, options_.refine_epsilon);
   Eigen::Matrix3d G = planeToImage();
   cv::Mat keep;  // template pixels (current level) not covered by anything
   double cc = 0, visible = 0;
@@ -585,7 +614,8 @@ bool PlanarTargetTracker::refine(const cv::Mat& gray) {
     const int n_valid = cv::countNonZero(valid);
     if (n_valid < 0.25 * valid.total()) return false;  // mostly outside the frame
     if (keep.empty()) {  // what covers the target where it is predicted
-      keep = unoccludedPixels(tpl, a.gradients[l], warped, valid, options_.refine_outlier_sigma, 2.0);
+      keep =
+          unoccludedPixels(tpl, a.gradients[l], warped, valid, options_.refine_outlier_sigma, 2.0);
     } else {
       cv::resize(keep, keep, tpl.size(), 0, 0, cv::INTER_NEAREST);
       cv::bitwise_and(keep, valid, keep);
@@ -593,18 +623,21 @@ bool PlanarTargetTracker::refine(const cv::Mat& gray) {
     cv::Mat warp;
     for (int round = 0; round < 3; ++round) {
       warp = cv::Mat::eye(3, 3, CV_32F);
-      if (cv::countNonZero(keep) < 0.1 * valid.total()) return false;  // hardly anything left to align
+      if (cv::countNonZero(keep) < 0.1 * valid.total())
+        return false;  // hardly anything left to align
       try {
         cc = cv::findTransformECC(tpl, warped, warp, cv::MOTION_HOMOGRAPHY, criteria, keep, 5);
       } catch (const cv::Exception&) {
-      return false;  // did not converge (uncorrelated images)
+        return false;  // did not converge (uncorrelated images)
       }
       cv::Mat aligned, aligned_valid;
-      cv::warpPerspective(warped, aligned, warp, tpl.size(), cv::INTER_LINEAR | cv::WARP_INVERSE_MAP);
-      cv::warpPerspective(valid, aligned_valid, warp, tpl.size(), cv::INTER_NEAREST | cv::WARP_INVERSE_MAP);
+      cv::warpPerspective(warped, aligned, warp, tpl.size(),
+                          cv::INTER_LINEAR | cv::WARP_INVERSE_MAP);
+      cv::warpPerspective(valid, aligned_valid, warp, tpl.size(),
+                          cv::INTER_NEAREST | cv::WARP_INVERSE_MAP);
       cv::bitwise_and(aligned_valid, valid, aligned_valid);
-      const cv::Mat now =
-          unoccludedPixels(tpl, a.gradients[l], aligned, aligned_valid, options_.refine_outlier_sigma, 0.5);
+      const cv::Mat now = unoccludedPixels(tpl, a.gradients[l], aligned, aligned_valid,
+                                           options_.refine_outlier_sigma, 0.5);
       // Realigned only when a real part of the target turned out covered.
       const int newly_covered = cv::countNonZero(keep & ~now);
       keep = now;
@@ -617,7 +650,8 @@ bool PlanarTargetTracker::refine(const cv::Mat& gray) {
     if (!C.allFinite()) return false;
     G = G * A * C * A.inverse();
   }
-  if (!(cc >= options_.refine_min_correlation) || !(visible >= options_.refine_min_visible)) return false;
+  if (!(cc >= options_.refine_min_correlation) || !(visible >= options_.refine_min_visible))
+    return false;
   // The aligned plane, seen through a grid of points, gives the rigid pose.
   std::vector<PlaneObservation> grid;
   double correction = 0;
@@ -690,7 +724,8 @@ void PlanarTargetTracker::predict(const Eigen::Matrix3d& H) {
   }
 }
 
-const PlanarTargetState& PlanarTargetTracker::step(const MotionData& md, const Eigen::Matrix3d& H_last_to_this,
+const PlanarTargetState& PlanarTargetTracker::step(const MotionData& md,
+                                                   const Eigen::Matrix3d& H_last_to_this,
                                                    bool H_valid, const cv::Mat& gray) {
   state_.stamp = md.stamp;
   state_.correlation = 0;

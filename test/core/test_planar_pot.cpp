@@ -13,13 +13,13 @@
 #include <opencv2/calib3d.hpp>
 #include <opencv2/imgcodecs.hpp>
 
+#include <sys/stat.h>
 #include <chrono>
-#include <ctime>
 #include <cstdio>
 #include <cstdlib>
+#include <ctime>
 #include <fstream>
 #include <sstream>
-#include <sys/stat.h>
 
 namespace imt {
 namespace {
@@ -92,7 +92,8 @@ PotResult runPot(const std::string& seq, int frames, const std::string& model) {
   std::array<cv::Point2d, 4> c0;
   for (int i = 0; i < 4; ++i) c0[i] = cv::Point2d(gt[0][2 * i], gt[0][2 * i + 1]);
   double seconds = 0, tracking_seconds = 0;  // wall time: analysis + tracking; tracking alone
-  double cpu_seconds = 0, cpu_tracking_seconds = 0;  // the same in CPU time (all threads): stable on a busy machine
+  double cpu_seconds = 0,
+         cpu_tracking_seconds = 0;  // the same in CPU time (all threads): stable on a busy machine
   std::vector<double> errors;
   uint32_t id = 0;
   for (int f = 1; f <= frames; ++f) {
@@ -109,7 +110,8 @@ PotResult runPot(const std::string& seq, int frames, const std::string& model) {
     const std::clock_t cpu1 = std::clock();
     std::vector<PlanarTargetState> states;
     if (f == 1) {
-      const CameraIntrinsics k = CameraIntrinsics::fromFieldOfView(gray.cols, gray.rows, kFieldOfViewDeg);
+      const CameraIntrinsics k =
+          CameraIntrinsics::fromFieldOfView(gray.cols, gray.rows, kFieldOfViewDeg);
       const double aspect = rectifiedAspect(c0, k);
       EXPECT_GT(aspect, 0);
       EXPECT_TRUE(targets.add(0, 0, c0, 1.0, aspect, k, cache, &id, &err)) << err;
@@ -124,9 +126,11 @@ PotResult runPot(const std::string& seq, int frames, const std::string& model) {
     cpu_tracking_seconds += static_cast<double>(cpu2 - cpu1) / CLOCKS_PER_SEC;
     const auto& g = gt[f - 1];
     const bool annotated = g.size() == 8 && (g[0] != 0 || g[1] != 0);
-    if (f == 1 || !annotated || flags[f - 1].empty() || flags[f - 1][0] != 0 || states.empty()) continue;
+    if (f == 1 || !annotated || flags[f - 1].empty() || flags[f - 1][0] != 0 || states.empty())
+      continue;
     double sq = 0;
-    for (int i = 0; i < 4; ++i) sq += std::pow(cv::norm(states[0].corners[i] - cv::Point2d(g[2 * i], g[2 * i + 1])), 2);
+    for (int i = 0; i < 4; ++i)
+      sq += std::pow(cv::norm(states[0].corners[i] - cv::Point2d(g[2 * i], g[2 * i + 1])), 2);
     errors.push_back(std::sqrt(sq / 4));
     if (std::getenv("IMT_TEST_TRACE"))  // per-frame trace for tuning
       std::printf("%d err %.2f cc %.3f visible %.2f pts %d rms %.2f st %d\n", f, errors.back(),
@@ -140,10 +144,11 @@ PotResult runPot(const std::string& seq, int frames, const std::string& model) {
   res.fps = frames / seconds;
   std::sort(errors.begin(), errors.end());
   res.median_error = errors.empty() ? 0 : errors[errors.size() / 2];
-  std::printf("POT %s (%s): P@5 %.2f over %d frames, median alignment error %.2f px, %.0f frames/s "
-              "(planar tracking alone %.1f ms/frame; CPU time %.0f frames/s, tracking %.1f ms/frame)\n",
-              seq.c_str(), model.c_str(), res.precision, res.scored, res.median_error, res.fps,
-              1000 * tracking_seconds / frames, frames / cpu_seconds, 1000 * cpu_tracking_seconds / frames);
+  std::printf(
+      "POT %s (%s): P@5 %.2f over %d frames, median alignment error %.2f px, %.0f frames/s "
+      "(planar tracking alone %.1f ms/frame; CPU time %.0f frames/s, tracking %.1f ms/frame)\n",
+      seq.c_str(), model.c_str(), res.precision, res.scored, res.median_error, res.fps,
+      1000 * tracking_seconds / frames, frames / cpu_seconds, 1000 * cpu_tracking_seconds / frames);
   return res;
 }
 
@@ -169,7 +174,8 @@ TEST_P(Pot210, DISABLED_Perspective) {
 }
 
 INSTANTIATE_TEST_SUITE_P(Sequences, Pot210,
-                         ::testing::Values(std::make_pair("V25_2", 50), std::make_pair("V24_7", 110)),
+                         ::testing::Values(std::make_pair("V25_2", 50),
+                                           std::make_pair("V24_7", 110)),
                          [](const auto& info) { return std::string(info.param.first); });
 
 }  // namespace

@@ -162,7 +162,7 @@ class Pot210 : public ::testing::TestWithParam<std::pair<const char*, int>> {
 
 // DISABLED until the planar tracker meets the bar (P@5 = 1.0 on both
 // sequences). Measured with the defaults (appearance alignment, occluder
-// masking): V25_2 P@5 1.00 (median 1.96 px); V24_7 P@5 0.92 (median 2.39 px):
+// masking): V25_2 P@5 1.00 (median 2.00 px); V24_7 P@5 0.92 (median 2.33 px):
 // frames 98-110, where the card covers most of the target under heavy motion
 // blur, are lost (the features are dragged by the card at frame 97-98 and the
 // camera motion does not predict the near kiosk). Run with

@@ -232,9 +232,103 @@ cv::Mat gradientMagnitude(const cv::Mat& im) {
   return g;
 }
 
+// The short side (px) of the template level a search matches at, at least.
+constexpr int kMinSearchSide = 24;
+
+struct SearchMatch {
+  cv::Point2d
+      shift;  // template px; where the template matches best, relative to the window's centre
+  double score = -1;   // that match's score (normalised correlation, -1..1)
+  double second = -1;  // the best score away from it (a second candidate)
+  int tiles = 0;       // textured tiles that took part
+  cv::Mat seen;        // CV_8U on the template: 255 but on textured tiles that do not match there
+};
+
+// Where `tpl` (CV_32F, `mask`: 255 where it is known) best matches `window`
+// (the frame on the template's grid, widened by `margin` px on every side),
+// over shifts of up to `margin` px. The template is cut into tiles of about
+// half its short side, each matched on its own (normalised correlation), and
+// a shift scores the mean of its better half of tiles: a part of the target
+// covered by something else neither counts nor drags the match. The second
+// score is the best one farther than half a tile from the best (a repeated
+// pattern, or no clear match at all, scores about as well there).
+SearchMatch searchTemplate(const cv::Mat& tpl, const cv::Mat& mask, const cv::Mat& window,
+                           int margin) {
+  SearchMatch best;
+  const int side = std::max(8, std::min(tpl.cols, tpl.rows) / 2);
+  const int nx = std::max(1, static_cast<int>(std::lround(static_cast<double>(tpl.cols) / side)));
+  const int ny = std::max(1, static_cast<int>(std::lround(static_cast<double>(tpl.rows) / side)));
+  std::vector<cv::Mat> scores;
+  std::vector<cv::Rect> rects;
+  for (int iy = 0; iy < ny; ++iy) {
+    for (int ix = 0; ix < nx; ++ix) {
+      const cv::Rect r(ix * tpl.cols / nx, iy * tpl.rows / ny,
+                       (ix + 1) * tpl.cols / nx - ix * tpl.cols / nx,
+                       (iy + 1) * tpl.rows / ny - iy * tpl.rows / ny);
+      cv::Scalar mean, stddev;
+      cv::meanStdDev(tpl(r), mean, stddev);
+      if (cv::countNonZero(mask(r)) < 0.9 * r.area() || stddev[0] < 2.0)
+        continue;  // partly unknown, or featureless
+      cv::Mat res;
+      cv::matchTemplate(window(cv::Rect(r.x, r.y, r.width + 2 * margin, r.height + 2 * margin)),
+                        tpl(r), res, cv::TM_CCOEFF_NORMED);
+      cv::patchNaNs(res, -1);
+      scores.push_back(res);
+      rects.push_back(r);
+    }
+  }
+  best.tiles = static_cast<int>(scores.size());
+  if (scores.size() < 2) return best;
+  const int n = 2 * margin + 1;
+  const size_t k = (scores.size() + 1) / 2;  // the better half of the tiles
+  cv::Mat combined(n, n, CV_32F);
+  std::vector<float> v(scores.size());
+  for (int y = 0; y < n; ++y) {
+    for (int x = 0; x < n; ++x) {
+      for (size_t i = 0; i < scores.size(); ++i) v[i] = scores[i].at<float>(y, x);
+      std::nth_element(v.begin(), v.begin() + (k - 1), v.end(), std::greater<float>());
+      float sum = 0;
+      for (size_t i = 0; i < k; ++i) sum += v[i];
+      combined.at<float>(y, x) = sum / k;
+    }
+  }
+  double max_val;
+  cv::Point p;
+  cv::minMaxLoc(combined, nullptr, &max_val, nullptr, &p);
+  best.score = max_val;
+  // Sub-pixel peak (parabola through the neighbours).
+  const auto refinePeak = [&](float lo, float mid, float hi) {
+    const float d = lo - 2 * mid + hi;
+    return d < 0 ? std::clamp(0.5 * (lo - hi) / d, -0.5, 0.5) : 0.0;
+  };
+  double sx = p.x, sy = p.y;
+  if (p.x > 0 && p.x < n - 1)
+    sx += refinePeak(combined.at<float>(p.y, p.x - 1), combined.at<float>(p.y, p.x),
+                     combined.at<float>(p.y, p.x + 1));
+  if (p.y > 0 && p.y < n - 1)
+    sy += refinePeak(combined.at<float>(p.y - 1, p.x), combined.at<float>(p.y, p.x),
+                     combined.at<float>(p.y + 1, p.x));
+  best.shift = cv::Point2d(sx - margin, sy - margin);
+  cv::Mat away(n, n, CV_8U, cv::Scalar(255));
+  cv::circle(away, p, std::max(2, side / 2), cv::Scalar(0), cv::FILLED);
+  double second;
+  cv::minMaxLoc(combined, nullptr, &second, nullptr, nullptr, away);
+  best.second = second;
+  best.seen = cv::Mat(tpl.size(), CV_8U, cv::Scalar(255));
+  for (size_t i = 0; i < scores.size(); ++i)
+    if (scores[i].at<float>(p) < 0.5 * best.score) best.seen(rects[i]).setTo(0);
+  return best;
+}
+
 std::array<Eigen::Vector3d, 4> targetCorners(double w, double h) {
   return {Eigen::Vector3d(-w / 2, -h / 2, 0), Eigen::Vector3d(w / 2, -h / 2, 0),
           Eigen::Vector3d(w / 2, h / 2, 0), Eigen::Vector3d(-w / 2, h / 2, 0)};
+}
+
+double longestEdge(const std::array<cv::Point2d, 4>& c) {
+  double e = 0;
+  for (int i = 0; i < 4; ++i) e = std::max(e, cv::norm(c[(i + 1) % 4] - c[i]));
+  return e;
 }
 
 double quadArea(const std::array<cv::Point2d, 4>& c) {
@@ -300,6 +394,13 @@ std::string PlanarTargetOptions::validate() const {
     return "planar_tracking.refine_min_correlation: must be in (0, 1)";
   if (!(refine_max_correction > 0 && refine_max_correction <= 1))
     return "planar_tracking.refine_max_correction: must be in (0, 1]";
+  if (!(prediction_gate > 0)) return "planar_tracking.prediction_gate: must be > 0";
+  if (!(refine_search_range >= 0 && refine_search_range <= 1))
+    return "planar_tracking.refine_search_range: must be in [0, 1]";
+  if (!(refine_search_min_score > 0 && refine_search_min_score < 1))
+    return "planar_tracking.refine_search_min_score: must be in (0, 1)";
+  if (!(refine_search_margin >= 0 && refine_search_margin < 1))
+    return "planar_tracking.refine_search_margin: must be in [0, 1)";
   if (!(image_memory_mb >= 0 && image_memory_mb <= 1e6))
     return "planar_tracking.image_memory_mb: must be >= 0";
   return "";
@@ -458,7 +559,7 @@ void PlanarTargetTracker::addNewPoints(const MotionData& md) {
   rejected_ = std::move(rejected);
 }
 
-void PlanarTargetTracker::stepPerspective(const MotionData& md) {
+void PlanarTargetTracker::stepPerspective(const MotionData& md, const Eigen::Matrix3d* H) {
   std::vector<PlaneObservation> obs;
   for (const FeatureMotion& f : md.features) {
     const auto m = model_.find(f.id);
@@ -467,9 +568,28 @@ void PlanarTargetTracker::stepPerspective(const MotionData& md) {
   state_.points = static_cast<int>(obs.size());
   if (static_cast<int>(obs.size()) < options_.min_points) return;
 
+  const Eigen::Isometry3d T_last = state_.T_cam_target;
   if (!fitPose(obs, k_, options_.loss_scale, options_.max_iterations, &state_.T_cam_target)) {
     state_.points = 0;
     return;
+  }
+  // A pose resting on few points that puts the target far from where the
+  // camera motion moves it is not used: when something passes in front of
+  // the target, the last features left are those its edge drags along, and
+  // they would take the pose (and the model, as they outvote the rest) with
+  // them. The camera motion predicts it instead (step()).
+  if (H && static_cast<int>(obs.size()) < 2 * options_.min_points) {
+    double gap = 0;
+    const auto corners = targetCorners(state_.width_m, state_.height_m);
+    for (int i = 0; i < 4; ++i) {
+      const Eigen::Vector3d p = *H * Eigen::Vector3d(state_.corners[i].x, state_.corners[i].y, 1);
+      gap = std::max(gap, (project(corners[i]) - p.head<2>() / p.z()).norm());
+    }
+    if (gap > options_.prediction_gate * longestEdge(state_.corners) + 1.0) {
+      state_.T_cam_target = T_last;
+      state_.points = 0;
+      return;
+    }
   }
 
   dropDisagreeingPoints(md, false);
@@ -531,16 +651,6 @@ Eigen::Matrix3d PlanarTargetTracker::planeToImage() const {
   return K * Rt;
 }
 
-namespace {
-
-double longestEdge(const std::array<cv::Point2d, 4>& c) {
-  double e = 0;
-  for (int i = 0; i < 4; ++i) e = std::max(e, cv::norm(c[(i + 1) % 4] - c[i]));
-  return e;
-}
-
-}  // namespace
-
 // The target's look at placement: the frame resampled onto the target plane
 // at about the resolution it was seen with (at most template_size px).
 bool PlanarTargetTracker::captureAppearance(const cv::Mat& gray) {
@@ -577,42 +687,43 @@ bool PlanarTargetTracker::captureAppearance(const cv::Mat& gray) {
 
 // Aligns the appearance at placement with `gray` by ECC (OpenCV's
 // findTransformECC, a homography on the rectified target, coarse to fine),
-// starting from the current pose, then fits the rigid pose to the aligned
-// plane. Whatever covers part of the target (an occluder) is masked out: after
-// each alignment the template pixels the frame does not explain are found
-// (unoccludedPixels) and, when they changed, the alignment is redone from the
-// same start without them, so an occluder cannot drag the target. The
-// alignment is used only when enough of the target is seen, it correlates
-// well and it corrects the pose by a plausible amount.
-bool PlanarTargetTracker::refine(const cv::Mat& gray) {
-  state_.correlation = 0;
-  state_.visible = 0;
-  if (gray.empty() || gray.type() != CV_8UC1) return false;
-  if (!appearance_) {
-    captureAppearance(gray);
-    return false;
-  }
+// starting from the plane-to-image homography `*G` (updated). Whatever covers
+// part of the target (an occluder) is masked out: after each alignment the
+// template pixels the frame does not explain are found (unoccludedPixels) and,
+// when they changed, the alignment is redone from the same start without
+// them, so an occluder cannot drag the target. `seen` (optional, on the
+// template, e.g. from search()) excludes parts known to be covered from the
+// start: with much of the target covered, the photometric fit behind
+// unoccludedPixels may take the occluder for the target. False when the
+// alignment failed; else `*cc` (ECC correlation) and `*visible` (fraction of the target
+// in view seen uncovered) say how well it fits.
+bool PlanarTargetTracker::align(const cv::Mat& gray, Eigen::Matrix3d* G, double* cc,
+                                double* visible, const cv::Mat& seen) const {
   const Appearance& a = *appearance_;
   const double w = state_.width_m, h = state_.height_m;
-  const double seen = longestEdge(state_.corners);
-  const double r0 =
-      seen / std::max(a.levels[0].cols, a.levels[0].rows);  // image px per level-0 template px
+  const double r0 = longestEdge(state_.corners) /
+                    std::max(a.levels[0].cols, a.levels[0].rows);  // image px per template px
   const int top = static_cast<int>(a.levels.size()) - 1;
   const int lt = r0 >= 1 ? 0 : std::min(top, static_cast<int>(std::lround(std::log2(1 / r0))));
   const cv::TermCriteria criteria(cv::TermCriteria::COUNT | cv::TermCriteria::EPS,
                                   options_.refine_iterations, options_.refine_epsilon);
-  Eigen::Matrix3d G = planeToImage();
   cv::Mat keep;  // template pixels (current level) not covered by anything
-  double cc = 0, visible = 0;
+  *cc = 0;
+  *visible = 0;
   for (int l = std::min(top, lt + 1); l >= lt; --l) {
     const int li = imageLevelFor(r0 * (1 << l));
     const Eigen::Matrix3d A = templateToPlane(a.px_per_m, l, w, h);
     const cv::Mat& tpl = a.levels[l];
     cv::Mat warped, valid;
-    sampleImage(gray, li, G * A, tpl.size(), &warped, &valid);
+    sampleImage(gray, li, *G * A, tpl.size(), &warped, &valid);
     cv::bitwise_and(valid, a.masks[l], valid);
     const int n_valid = cv::countNonZero(valid);
     if (n_valid < 0.25 * valid.total()) return false;  // mostly outside the frame
+    cv::Mat seen_here;  // the part a search saw uncovered, at this level
+    if (!seen.empty()) {
+      cv::resize(seen, seen_here, tpl.size(), 0, 0, cv::INTER_NEAREST);
+      cv::bitwise_and(valid, seen_here, valid);
+    }
     if (keep.empty()) {  // what covers the target where it is predicted
       keep =
           unoccludedPixels(tpl, a.gradients[l], warped, valid, options_.refine_outlier_sigma, 2.0);
@@ -626,7 +737,7 @@ bool PlanarTargetTracker::refine(const cv::Mat& gray) {
       if (cv::countNonZero(keep) < 0.1 * valid.total())
         return false;  // hardly anything left to align
       try {
-        cc = cv::findTransformECC(tpl, warped, warp, cv::MOTION_HOMOGRAPHY, criteria, keep, 5);
+        *cc = cv::findTransformECC(tpl, warped, warp, cv::MOTION_HOMOGRAPHY, criteria, keep, 5);
       } catch (const cv::Exception&) {
         return false;  // did not converge (uncorrelated images)
       }
@@ -643,33 +754,122 @@ bool PlanarTargetTracker::refine(const cv::Mat& gray) {
       keep = now;
       if (newly_covered < 0.05 * n_valid) break;
     }
-    visible = static_cast<double>(cv::countNonZero(keep)) / n_valid;
+    *visible = static_cast<double>(cv::countNonZero(keep)) / n_valid;
     Eigen::Matrix3d C;
     for (int r = 0; r < 3; ++r)
       for (int c = 0; c < 3; ++c) C(r, c) = warp.at<float>(r, c);
     if (!C.allFinite()) return false;
-    G = G * A * C * A.inverse();
+    *G = *G * A * C * A.inverse();
   }
-  if (!(cc >= options_.refine_min_correlation) || !(visible >= options_.refine_min_visible))
+  return true;
+}
+
+// Looks for the appearance at placement in a window around where the
+// plane-to-image homography `*G` puts it (re-acquisition after the target
+// was lost to an occluder or drifted beyond ECC's reach): the frame is
+// resampled on the grid of a coarse template level widened by
+// refine_search_range of the target's size on each side, and searchTemplate
+// finds the shift. True with `*G` moved there and `*reach` the largest
+// corner move (px) the window allows, when the best match is strong and
+// clearly better than any other (a repeated pattern or a target not in the
+// window gives no answer).
+bool PlanarTargetTracker::search(const cv::Mat& gray, Eigen::Matrix3d* G, double* reach,
+                                 cv::Mat* seen) const {
+  const Appearance& a = *appearance_;
+  const double w = state_.width_m, h = state_.height_m;
+  const double r0 = longestEdge(state_.corners) / std::max(a.levels[0].cols, a.levels[0].rows);
+  const int top = static_cast<int>(a.levels.size()) - 1;
+  const int lt = r0 >= 1 ? 0 : std::min(top, static_cast<int>(std::lround(std::log2(1 / r0))));
+  int ls = lt;  // the coarsest level still about kMinSearchSide px on its short side
+  while (ls < top && std::min(a.levels[ls + 1].cols, a.levels[ls + 1].rows) >= kMinSearchSide) ++ls;
+  const cv::Mat& tpl = a.levels[ls];
+  const int margin =
+      static_cast<int>(std::ceil(options_.refine_search_range * std::max(tpl.cols, tpl.rows)));
+  const Eigen::Matrix3d A = templateToPlane(a.px_per_m, ls, w, h);
+  Eigen::Matrix3d widen = Eigen::Matrix3d::Identity();
+  widen(0, 2) = widen(1, 2) = -margin;
+  cv::Mat window, valid;
+  sampleImage(gray, imageLevelFor(r0 * (1 << ls)), *G * A * widen,
+              cv::Size(tpl.cols + 2 * margin, tpl.rows + 2 * margin), &window, &valid);
+  const SearchMatch m = searchTemplate(tpl, a.masks[ls], window, margin);
+  if (!(m.score >= options_.refine_search_min_score) ||
+      !(m.score - m.second >= options_.refine_search_margin))
     return false;
+  Eigen::Matrix3d S = Eigen::Matrix3d::Identity();
+  S(0, 2) = m.shift.x;
+  S(1, 2) = m.shift.y;
+  *G = *G * A * S * A.inverse();
+  *reach = std::sqrt(2.0) * margin * r0 * (1 << ls);
+  *seen = m.seen;
+  return true;
+}
+
+// Aligns the appearance at placement with `gray` (align()), from the current
+// pose or, when that fails or the target was not aligned on the last frame,
+// from where a search (search()) finds it, then fits the rigid pose to the
+// aligned plane. The alignment is used only when enough of the target is
+// seen, it correlates well and it corrects the pose by a plausible amount: a
+// target aligned on the last frame moves little from where the features or
+// the camera motion put it, the longer it went unaligned the farther, and a
+// search's unambiguous match as far as its window reaches.
+bool PlanarTargetTracker::refine(const cv::Mat& gray) {
+  state_.correlation = 0;
+  state_.visible = 0;
+  if (gray.empty() || gray.type() != CV_8UC1) return false;
+  if (!appearance_) {
+    captureAppearance(gray);
+    return false;
+  }
+  const double w = state_.width_m, h = state_.height_m;
+  const double seen = longestEdge(state_.corners);
+  const double allowed =
+      std::min(options_.refine_max_correction, options_.refine_max_step * (1 + frames_unaligned_)) *
+          seen +
+      1.0;
+  const Eigen::Matrix3d G0 = planeToImage();
+  // How far the aligned plane `G` moves the target's corners from `G0`.
+  const auto correction = [&](const Eigen::Matrix3d& G) {
+    double c = 0;
+    for (const Eigen::Vector3d& p : targetCorners(w, h)) {
+      const Eigen::Vector3d a = G * Eigen::Vector3d(p.x(), p.y(), 1);
+      const Eigen::Vector3d b = G0 * Eigen::Vector3d(p.x(), p.y(), 1);
+      if (!(a.z() > 0) || !(b.z() > 0)) return 1e18;
+      c = std::max(c, (a.head<2>() / a.z() - b.head<2>() / b.z()).norm());
+    }
+    return c;
+  };
+  const auto usable = [&](const Eigen::Matrix3d& G, double cc, double visible, double limit) {
+    return cc >= options_.refine_min_correlation && visible >= options_.refine_min_visible &&
+           correction(G) <= limit;
+  };
+  Eigen::Matrix3d G = G0;
+  double cc = 0, visible = 0;
+  bool ok = false;
+  // A target aligned on the last frame: from where it is now.
+  if (frames_unaligned_ == 0)
+    ok = align(gray, &G, &cc, &visible) && usable(G, cc, visible, allowed);
+  // Otherwise, or when that failed, from where a search finds it, without
+  // the part the search saw covered.
+  double reach = 0;
+  cv::Mat seen_by_search;
+  if (!ok && options_.refine_search_range > 0 && search(gray, &G, &reach, &seen_by_search))
+    ok = align(gray, &G, &cc, &visible, seen_by_search) && usable(G, cc, visible, allowed + reach);
+  // No clear match: from where it is now, as far as a step allows.
+  if (!ok && frames_unaligned_ > 0) {
+    G = G0;
+    ok = align(gray, &G, &cc, &visible) && usable(G, cc, visible, allowed);
+  }
+  if (!ok) return false;
   // The aligned plane, seen through a grid of points, gives the rigid pose.
   std::vector<PlaneObservation> grid;
-  double correction = 0;
   for (int i = 0; i <= 4; ++i) {
     for (int j = 0; j <= 4; ++j) {
       const Eigen::Vector2d xy((i / 4.0 - 0.5) * w, (j / 4.0 - 0.5) * h);
       const Eigen::Vector3d p = G * Eigen::Vector3d(xy.x(), xy.y(), 1);
       if (!(p.z() > 0)) return false;
       grid.push_back({0, xy, p.head<2>() / p.z()});
-      if ((i == 0 || i == 4) && (j == 0 || j == 4))
-        correction = std::max(correction, (grid.back().uv - project({xy.x(), xy.y(), 0})).norm());
     }
   }
-  // A target aligned on the last frame moves little from where the features
-  // or the camera motion put it; the longer it went unaligned, the farther.
-  const double allowed =
-      std::min(options_.refine_max_correction, options_.refine_max_step * (1 + frames_unaligned_));
-  if (correction > allowed * seen + 1.0) return false;
   Eigen::Isometry3d T = state_.T_cam_target;
   if (!fitPose(grid, k_, 0, options_.max_iterations, &T)) return false;
   state_.T_cam_target = T;
@@ -732,14 +932,15 @@ const PlanarTargetState& PlanarTargetTracker::step(const MotionData& md,
   state_.visible = 0;
   if (state_.status == TargetStatus::kLost) return state_;
   const bool perspective = options_.model == "perspective";
+  const bool predictable = H_valid && H_last_to_this.allFinite();
   if (perspective) {
-    stepPerspective(md);
+    stepPerspective(md, predictable ? &H_last_to_this : nullptr);
   } else {
     stepHomography(md);
   }
   bool measured = state_.points >= options_.min_points;
   if (measured && perspective) projectCorners();
-  if (!measured && H_valid && H_last_to_this.allFinite()) predict(H_last_to_this);
+  if (!measured && predictable) predict(H_last_to_this);
   if (perspective && options_.refine && !gray.empty() &&
       fractionInside(state_.corners, md.width, md.height) > 0.2 && refine(gray)) {
     frames_unaligned_ = 0;

@@ -44,8 +44,11 @@ struct PlanarTargetOptions {
                                // (or within 1.5x the points' noise level)
   int min_points = 6;          // fewer model points visible: predicted by the camera motion
   double confidence_points = 30;  // model points at which confidence reaches 1
-  bool refine = true;             // align the target's look at placement with each frame (ECC)
-  int template_size = 256;        // px; long side of the rectified template kept at placement
+  double prediction_gate =
+      0.06;  // fraction of the target's size; a pose from fewer than 2 min_points points farther
+             // than this from the camera-motion prediction is not used (dragged by an occluder)
+  bool refine = true;       // align the target's look at placement with each frame (ECC)
+  int template_size = 256;  // px; long side of the rectified template kept at placement
   double refine_min_correlation = 0.75;  // ECC correlation below which an alignment is not used
   double refine_max_correction =
       0.15;  // fraction of the target's size on screen; larger corrections are not used
@@ -57,6 +60,11 @@ struct PlanarTargetOptions {
       0.35;  // fraction of the target (in view) that must be seen uncovered to align
   double refine_outlier_sigma =
       3.0;  // noise levels by which a covered (occluded) template pixel differs
+  double refine_search_range = 0.4;      // fraction of the target's size searched around it after a
+                                         // failed alignment (0: no search)
+  double refine_search_min_score = 0.6;  // normalised correlation a search's match must reach
+  double refine_search_margin =
+      0.15;  // by which it must beat the best match elsewhere (no repeated-pattern confusion)
   double image_memory_mb = 512;  // MB of gray frames kept for the alignment (oldest dropped first)
 
   template <class V>
@@ -71,6 +79,9 @@ struct PlanarTargetOptions {
       "points' noise level)");
     v("min_points", min_points, "fewer model points visible: predicted by the camera motion");
     v("confidence_points", confidence_points, "model points at which confidence reaches 1");
+    v("prediction_gate", prediction_gate,
+      "fraction of the target's size; a pose from fewer than 2 min_points points farther than this "
+      "from the camera-motion prediction is not used (dragged by an occluder)");
     v("refine", refine, "align the target's look at placement with each frame (ECC): no drift");
     v("template_size", template_size, "px; long side of the rectified template kept at placement");
     v("refine_min_correlation", refine_min_correlation,
@@ -85,6 +96,12 @@ struct PlanarTargetOptions {
       "fraction of the target (in view) that must be seen uncovered to align");
     v("refine_outlier_sigma", refine_outlier_sigma,
       "noise levels by which a covered (occluded) template pixel differs");
+    v("refine_search_range", refine_search_range,
+      "fraction of the target's size searched around it after a failed alignment (0: no search)");
+    v("refine_search_min_score", refine_search_min_score,
+      "normalised correlation a search's match must reach");
+    v("refine_search_margin", refine_search_margin,
+      "by which it must beat the best match elsewhere (no repeated-pattern confusion)");
     v("image_memory_mb", image_memory_mb,
       "MB of gray frames kept for the alignment (oldest dropped first)");
   }
@@ -146,13 +163,16 @@ class PlanarTargetTracker {
   Eigen::Vector2d project(const Eigen::Vector3d& p_target) const;
   bool backProject(const Eigen::Vector2d& px, Eigen::Vector2d* xy) const;
   void addNewPoints(const MotionData& md);
-  void stepPerspective(const MotionData& md);
+  void stepPerspective(const MotionData& md, const Eigen::Matrix3d* H_last_to_this);
   void stepHomography(const MotionData& md);
   void predict(const Eigen::Matrix3d& H);
   // Appearance (template) alignment, see planar_target.cpp.
   struct Appearance;
   Eigen::Matrix3d planeToImage() const;
   bool captureAppearance(const cv::Mat& gray);
+  bool align(const cv::Mat& gray, Eigen::Matrix3d* G, double* cc, double* visible,
+             const cv::Mat& seen = cv::Mat()) const;
+  bool search(const cv::Mat& gray, Eigen::Matrix3d* G, double* reach, cv::Mat* seen) const;
   bool refine(const cv::Mat& gray);
   void dropDisagreeingPoints(const MotionData& md, bool reanchor);
 

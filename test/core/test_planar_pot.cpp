@@ -73,6 +73,7 @@ struct PotResult {
   int scored = 0;
   double fps = 0;
   double median_error = 0;
+  double max_error = 0;
 };
 
 PotResult runPot(const std::string& seq, int frames, const std::string& model) {
@@ -144,11 +145,14 @@ PotResult runPot(const std::string& seq, int frames, const std::string& model) {
   res.fps = frames / seconds;
   std::sort(errors.begin(), errors.end());
   res.median_error = errors.empty() ? 0 : errors[errors.size() / 2];
+  res.max_error = errors.empty() ? 0 : errors.back();
   std::printf(
-      "POT %s (%s): P@5 %.2f over %d frames, median alignment error %.2f px, %.0f frames/s "
+      "POT %s (%s): P@5 %.2f over %d frames, alignment error median %.2f px, worst %.2f px; %.0f "
+      "frames/s "
       "(planar tracking alone %.1f ms/frame; CPU time %.0f frames/s, tracking %.1f ms/frame)\n",
-      seq.c_str(), model.c_str(), res.precision, res.scored, res.median_error, res.fps,
-      1000 * tracking_seconds / frames, frames / cpu_seconds, 1000 * cpu_tracking_seconds / frames);
+      seq.c_str(), model.c_str(), res.precision, res.scored, res.median_error, res.max_error,
+      res.fps, 1000 * tracking_seconds / frames, frames / cpu_seconds,
+      1000 * cpu_tracking_seconds / frames);
   return res;
 }
 
@@ -160,17 +164,18 @@ class Pot210 : public ::testing::TestWithParam<std::pair<const char*, int>> {
   }
 };
 
-// DISABLED until the planar tracker meets the bar (P@5 = 1.0 on both
-// sequences). Measured with the defaults (appearance alignment, occluder
-// masking): V25_2 P@5 1.00 (median 2.00 px); V24_7 P@5 0.92 (median 2.33 px):
-// frames 98-110, where the card covers most of the target under heavy motion
-// blur, are lost (the features are dragged by the card at frame 97-98 and the
-// camera motion does not predict the near kiosk). Run with
-// --gtest_also_run_disabled_tests; IMT_TEST_TRACE=1 prints every frame.
-TEST_P(Pot210, DISABLED_Perspective) {
+// The bar: every scored frame within 5 px (P@5 = 1.0) on both
+// sequences. The bar has no tolerance below 1.0 because the POT precision is a
+// count: one frame over 5 px is a lost frame. The margin is thin on V24_7,
+// measured with the defaults: frames 96-110 are the hard ones (a card covers
+// most of the target under motion blur; frame 98 is at 4.2 px from the
+// camera-motion prediction, 106 at 3.3 px after re-acquisition), the median is
+// 2.33 px, the worst 4.21 px; V25_2: median 2.00 px, worst 2.88 px.
+// IMT_TEST_TRACE=1 prints every frame.
+TEST_P(Pot210, Perspective) {
   const PotResult r = runPot(GetParam().first, GetParam().second, "perspective");
   EXPECT_EQ(r.scored, GetParam().first == std::string("V25_2") ? 25 : 52);
-  EXPECT_GE(r.precision, 1.0);
+  EXPECT_EQ(r.precision, 1.0);
 }
 
 INSTANTIATE_TEST_SUITE_P(Sequences, Pot210,

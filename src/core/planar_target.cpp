@@ -395,6 +395,8 @@ std::string PlanarTargetOptions::validate() const {
   if (!(refine_max_correction > 0 && refine_max_correction <= 1))
     return "planar_tracking.refine_max_correction: must be in (0, 1]";
   if (!(prediction_gate > 0)) return "planar_tracking.prediction_gate: must be > 0";
+  if (!(refine_search_below >= 0 && refine_search_below <= 1))
+    return "planar_tracking.refine_search_below: must be in [0, 1]";
   if (!(refine_search_range >= 0 && refine_search_range <= 1))
     return "planar_tracking.refine_search_range: must be in [0, 1]";
   if (!(refine_search_min_score > 0 && refine_search_min_score < 1))
@@ -769,12 +771,11 @@ bool PlanarTargetTracker::align(const cv::Mat& gray, Eigen::Matrix3d* G, double*
 // was lost to an occluder or drifted beyond ECC's reach): the frame is
 // resampled on the grid of a coarse template level widened by
 // refine_search_range of the target's size on each side, and searchTemplate
-// finds the shift. True with `*G` moved there and `*reach` the largest
-// corner move (px) the window allows, when the best match is strong and
+// finds the shift. True with `*G` moved there and `*seen` the part of the
+// template that matched (searchTemplate), when the best match is strong and
 // clearly better than any other (a repeated pattern or a target not in the
 // window gives no answer).
-bool PlanarTargetTracker::search(const cv::Mat& gray, Eigen::Matrix3d* G, double* reach,
-                                 cv::Mat* seen) const {
+bool PlanarTargetTracker::search(const cv::Mat& gray, Eigen::Matrix3d* G, cv::Mat* seen) const {
   const Appearance& a = *appearance_;
   const double w = state_.width_m, h = state_.height_m;
   const double r0 = longestEdge(state_.corners) / std::max(a.levels[0].cols, a.levels[0].rows);
@@ -799,7 +800,6 @@ bool PlanarTargetTracker::search(const cv::Mat& gray, Eigen::Matrix3d* G, double
   S(0, 2) = m.shift.x;
   S(1, 2) = m.shift.y;
   *G = *G * A * S * A.inverse();
-  *reach = std::sqrt(2.0) * margin * r0 * (1 << ls);
   *seen = m.seen;
   return true;
 }
@@ -827,37 +827,49 @@ bool PlanarTargetTracker::refine(const cv::Mat& gray) {
           seen +
       1.0;
   const Eigen::Matrix3d G0 = planeToImage();
-  // How far the aligned plane `G` moves the target's corners from `G0`.
-  const auto correction = [&](const Eigen::Matrix3d& G) {
+  // How far the aligned plane `G` moves the target's corners from `from`.
+  const auto correction = [&](const Eigen::Matrix3d& G, const Eigen::Matrix3d& from) {
     double c = 0;
     for (const Eigen::Vector3d& p : targetCorners(w, h)) {
       const Eigen::Vector3d a = G * Eigen::Vector3d(p.x(), p.y(), 1);
-      const Eigen::Vector3d b = G0 * Eigen::Vector3d(p.x(), p.y(), 1);
+      const Eigen::Vector3d b = from * Eigen::Vector3d(p.x(), p.y(), 1);
       if (!(a.z() > 0) || !(b.z() > 0)) return 1e18;
       c = std::max(c, (a.head<2>() / a.z() - b.head<2>() / b.z()).norm());
     }
     return c;
   };
-  const auto usable = [&](const Eigen::Matrix3d& G, double cc, double visible, double limit) {
+  const auto usable = [&](const Eigen::Matrix3d& G, const Eigen::Matrix3d& from, double cc,
+                          double visible) {
     return cc >= options_.refine_min_correlation && visible >= options_.refine_min_visible &&
-           correction(G) <= limit;
+           correction(G, from) <= allowed;
   };
   Eigen::Matrix3d G = G0;
   double cc = 0, visible = 0;
   bool ok = false;
   // A target aligned on the last frame: from where it is now.
-  if (frames_unaligned_ == 0)
-    ok = align(gray, &G, &cc, &visible) && usable(G, cc, visible, allowed);
-  // Otherwise, or when that failed, from where a search finds it, without
-  // the part the search saw covered.
-  double reach = 0;
+  if (frames_unaligned_ == 0) ok = align(gray, &G, &cc, &visible) && usable(G, G0, cc, visible);
+  // Otherwise, or when that failed or fits only loosely (something covering
+  // the target may have dragged it), from where a search finds it (anywhere
+  // in its window), without the part the search saw covered; the alignment
+  // then only refines what the search found. The better fit is kept.
   cv::Mat seen_by_search;
-  if (!ok && options_.refine_search_range > 0 && search(gray, &G, &reach, &seen_by_search))
-    ok = align(gray, &G, &cc, &visible, seen_by_search) && usable(G, cc, visible, allowed + reach);
+  Eigen::Matrix3d G_found = G0;
+  if ((!ok || cc < options_.refine_search_below) && options_.refine_search_range > 0 &&
+      search(gray, &G_found, &seen_by_search)) {
+    Eigen::Matrix3d G_s = G_found;
+    double cc_s = 0, visible_s = 0;
+    if (align(gray, &G_s, &cc_s, &visible_s, seen_by_search) &&
+        usable(G_s, G_found, cc_s, visible_s) && (!ok || cc_s > cc)) {
+      G = G_s;
+      cc = cc_s;
+      visible = visible_s;
+      ok = true;
+    }
+  }
   // No clear match: from where it is now, as far as a step allows.
   if (!ok && frames_unaligned_ > 0) {
     G = G0;
-    ok = align(gray, &G, &cc, &visible) && usable(G, cc, visible, allowed);
+    ok = align(gray, &G, &cc, &visible) && usable(G, G0, cc, visible);
   }
   if (!ok) return false;
   // The aligned plane, seen through a grid of points, gives the rigid pose.

@@ -60,8 +60,10 @@ struct PlanarTargetOptions {
       0.35;  // fraction of the target (in view) that must be seen uncovered to align
   double refine_outlier_sigma =
       3.0;  // noise levels by which a covered (occluded) template pixel differs
-  double refine_search_range = 0.4;      // fraction of the target's size searched around it after a
-                                         // failed alignment (0: no search)
+  double refine_search_range = 0.4;  // fraction of the target's size searched around it after a
+                                     // failed alignment (0: no search)
+  double refine_search_below =
+      0.95;  // ECC correlation below which the search is tried too and the better fit kept
   double refine_search_min_score = 0.6;  // normalised correlation a search's match must reach
   double refine_search_margin =
       0.15;  // by which it must beat the best match elsewhere (no repeated-pattern confusion)
@@ -98,6 +100,8 @@ struct PlanarTargetOptions {
       "noise levels by which a covered (occluded) template pixel differs");
     v("refine_search_range", refine_search_range,
       "fraction of the target's size searched around it after a failed alignment (0: no search)");
+    v("refine_search_below", refine_search_below,
+      "ECC correlation below which the search is tried too and the better fit kept");
     v("refine_search_min_score", refine_search_min_score,
       "normalised correlation a search's match must reach");
     v("refine_search_margin", refine_search_margin,
@@ -172,7 +176,7 @@ class PlanarTargetTracker {
   bool captureAppearance(const cv::Mat& gray);
   bool align(const cv::Mat& gray, Eigen::Matrix3d* G, double* cc, double* visible,
              const cv::Mat& seen = cv::Mat()) const;
-  bool search(const cv::Mat& gray, Eigen::Matrix3d* G, double* reach, cv::Mat* seen) const;
+  bool search(const cv::Mat& gray, Eigen::Matrix3d* G, cv::Mat* seen) const;
   bool refine(const cv::Mat& gray);
   void dropDisagreeingPoints(const MotionData& md, bool reanchor);
 

@@ -561,13 +561,15 @@ bool PlanarTargetTracker::search(const cv::Mat& gray, Eigen::Matrix3d* G, cv::Ma
 }
 
 // Aligns the appearance at placement with `gray` (align()), from the current
-// pose or, when that fails or the target was not aligned on the last frame,
-// from where a search (search()) finds it, then fits the rigid pose to the
-// aligned plane. The alignment is used only when enough of the target is
-// seen, it correlates well and it corrects the pose by a plausible amount: a
-// target aligned on the last frame moves little from where the features or
-// the camera motion put it, the longer it went unaligned the farther, and a
-// search's unambiguous match as far as its window reaches.
+// pose or, when that fails or fits loosely or the target was not aligned on
+// the last frame, from where a search (search()) finds it, then fits the
+// rigid pose to the aligned plane. The alignment is used only when enough of
+// the target is seen, it correlates well and it moves the target by a
+// plausible amount from where it started: a target aligned on the last frame
+// moves little from where the features or the camera motion put it (the
+// longer it went unaligned, the farther), and an alignment started at a
+// search's unambiguous match (anywhere in the search window) moves as little
+// from that match.
 bool PlanarTargetTracker::refine(const cv::Mat& gray) {
   state_.correlation = 0;
   state_.visible = 0;

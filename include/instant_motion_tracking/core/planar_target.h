@@ -60,8 +60,8 @@ struct PlanarTargetOptions {
       0.35;  // fraction of the target (in view) that must be seen uncovered to align
   double refine_outlier_sigma =
       3.0;  // noise levels by which a covered (occluded) template pixel differs
-  double refine_search_range = 0.4;  // fraction of the target's size searched around it after a
-                                     // failed alignment (0: no search)
+  double refine_search_range = 0.4;  // fraction of the target's size searched around it when the
+                                     // alignment fails or fits loosely (0: no search)
   double refine_search_below =
       0.95;  // ECC correlation below which the search is tried too and the better fit kept
   double refine_search_min_score = 0.6;  // normalised correlation a search's match must reach
@@ -99,7 +99,8 @@ struct PlanarTargetOptions {
     v("refine_outlier_sigma", refine_outlier_sigma,
       "noise levels by which a covered (occluded) template pixel differs");
     v("refine_search_range", refine_search_range,
-      "fraction of the target's size searched around it after a failed alignment (0: no search)");
+      "fraction of the target's size searched around it when the alignment fails or fits loosely "
+      "(0: no search)");
     v("refine_search_below", refine_search_below,
       "ECC correlation below which the search is tried too and the better fit kept");
     v("refine_search_min_score", refine_search_min_score,
@@ -153,9 +154,13 @@ class PlanarTargetTracker {
   // Moves the target to the frame of `md` (the next frame in either time
   // direction). `H_last_to_this` is the background motion from the last
   // frame to this one; used (when valid) to predict a target with too few
-  // visible points. With `gray` (the frame's image, CV_8UC1) and `refine`,
-  // the pose from the features is then aligned with the target's appearance
-  // at placement, so errors of long feature tracks do not accumulate.
+  // visible points, or whose few points disagree with it (prediction_gate:
+  // dragged by an occluder). With `gray` (the frame's image, CV_8UC1) and
+  // `refine`, the pose is then aligned with the target's appearance at
+  // placement, so errors of long feature tracks do not accumulate; what
+  // covers part of the target is masked out, and a target the alignment lost
+  // (or that drifted while covered) is searched for around the pose and
+  // re-acquired (refine_search_*).
   const PlanarTargetState& step(const MotionData& md, const Eigen::Matrix3d& H_last_to_this,
                                 bool H_valid, const cv::Mat& gray = cv::Mat());
   const PlanarTargetState& state() const { return state_; }

@@ -1,16 +1,21 @@
 #include "instant_motion_tracking/core/planar_target.h"
 
+#include "planar_appearance.h"
+
 #include <ceres/ceres.h>
 #include <ceres/rotation.h>
 #include <opencv2/calib3d.hpp>
-#include <opencv2/video/tracking.hpp>
 #include <opencv2/imgproc.hpp>
+#include <opencv2/video/tracking.hpp>
 
+#include <algorithm>
 #include <cmath>
 #include <sstream>
 
 namespace imt {
 namespace {
+
+using namespace planar_detail;
 
 // Reprojection residual of a point (X, Y, 0) of the target plane under the
 // pose (angle-axis, translation) from target to camera.
@@ -71,66 +76,15 @@ bool fitPose(const std::vector<PlaneObservation>& obs, const CameraIntrinsics& k
   return true;
 }
 
-// Template pixel of pyramid level `level` (OpenCV: centres at integers) ->
-// target plane point (X, Y, 1), for a level-0 template of `px_per_m`. pyrDown
-// keeps OpenCV pixel coordinates proportional (level-l pixel u is level-0
-// pixel 2^l u).
-Eigen::Matrix3d templateToPlane(double px_per_m, int level, double w, double h) {
-  const double f = (1 << level) / px_per_m;
-  Eigen::Matrix3d A;
-  A << f, 0, 0.5 / px_per_m - w / 2, 0, f, 0.5 / px_per_m - h / 2, 0, 0, 1;
-  return A;
-}
-
-// Our pixel (centres at +0.5, docs/conventions.md) of the full image -> OpenCV
-// pixel of image pyramid level `level` (see templateToPlane on pyrDown).
-Eigen::Matrix3d toPyramidPixel(int level) {
-  const double s = 1.0 / (1 << level);
-  Eigen::Matrix3d S;
-  S << s, 0, -0.5 * s, 0, s, -0.5 * s, 0, 0, 1;
-  return S;
-}
-
-// The pyramid level at which an image seen `ratio` image pixels per template
-// pixel is sampled about 1:1.
-int imageLevelFor(double ratio) {
-  if (!(ratio > 1.5)) return 0;
-  return std::min(4, static_cast<int>(std::lround(std::log2(ratio))));
-}
-
-cv::Mat pyramidLevel(const cv::Mat& gray, int level) {
-  cv::Mat im = gray;
-  for (int l = 0; l < level; ++l) {
-    cv::Mat down;
-    cv::pyrDown(im, down);
-    im = down;
-  }
-  return im;
-}
-
-cv::Matx33d toMatx(const Eigen::Matrix3d& M) {
-  cv::Matx33d m;
-  for (int r = 0; r < 3; ++r)
-    for (int c = 0; c < 3; ++c) m(r, c) = M(r, c);
-  return m;
-}
-
-// `gray` sampled on the template grid through `M` (template px -> image px,
-// OpenCV), as CV_32F, and the mask of samples that fell inside the image.
-void sampleOnTemplate(const cv::Mat& gray, const Eigen::Matrix3d& M, cv::Size size, cv::Mat* out, cv::Mat* valid) {
-  cv::Mat warped;
-  cv::warpPerspective(gray, warped, toMatx(M), size, cv::INTER_LINEAR | cv::WARP_INVERSE_MAP,
-                      cv::BORDER_CONSTANT, 0);
-  warped.convertTo(*out, CV_32F);
-  const cv::Mat ones(gray.size(), CV_8U, cv::Scalar(255));
-  cv::warpPerspective(ones, *valid, toMatx(M), size, cv::INTER_NEAREST | cv::WARP_INVERSE_MAP,
-                      cv::BORDER_CONSTANT, 0);
-  cv::erode(*valid, *valid, cv::Mat());  // no bilinear samples mixing in the border
-}
-
 std::array<Eigen::Vector3d, 4> targetCorners(double w, double h) {
   return {Eigen::Vector3d(-w / 2, -h / 2, 0), Eigen::Vector3d(w / 2, -h / 2, 0),
           Eigen::Vector3d(w / 2, h / 2, 0), Eigen::Vector3d(-w / 2, h / 2, 0)};
+}
+
+double longestEdge(const std::array<cv::Point2d, 4>& c) {
+  double e = 0;
+  for (int i = 0; i < 4; ++i) e = std::max(e, cv::norm(c[(i + 1) % 4] - c[i]));
+  return e;
 }
 
 double quadArea(const std::array<cv::Point2d, 4>& c) {
@@ -140,7 +94,8 @@ double quadArea(const std::array<cv::Point2d, 4>& c) {
 }
 
 double fractionInside(const std::array<cv::Point2d, 4>& c, int w, int h) {
-  std::vector<cv::Point2f> quad, img = {{0, 0}, {float(w), 0}, {float(w), float(h)}, {0, float(h)}}, inter;
+  std::vector<cv::Point2f> quad, img = {{0, 0}, {float(w), 0}, {float(w), float(h)}, {0, float(h)}},
+                                 inter;
   for (const auto& p : c) quad.emplace_back(static_cast<float>(p.x), static_cast<float>(p.y));
   if (quadArea(c) < 0) std::reverse(quad.begin(), quad.end());
   const double area = std::abs(quadArea(c));
@@ -153,9 +108,12 @@ double fractionInside(const std::array<cv::Point2d, 4>& c, int w, int h) {
 
 const char* targetStatusName(TargetStatus s) {
   switch (s) {
-    case TargetStatus::kTracked: return "tracked";
-    case TargetStatus::kOutOfView: return "out_of_view";
-    case TargetStatus::kLost: break;
+    case TargetStatus::kTracked:
+      return "tracked";
+    case TargetStatus::kOutOfView:
+      return "out_of_view";
+    case TargetStatus::kLost:
+      break;
   }
   return "lost";
 }
@@ -163,35 +121,57 @@ const char* targetStatusName(TargetStatus s) {
 // The target as seen at placement, rectified onto its plane: a pyramid of
 // templates (level l has 2^-l the resolution of level 0) and their masks.
 struct PlanarTargetTracker::Appearance {
-  std::vector<cv::Mat> levels;  // CV_32F
-  std::vector<cv::Mat> masks;   // CV_8U, 255 where the frame saw the target
-  double px_per_m = 0;          // level-0 template pixels per metre
+  std::vector<cv::Mat> levels;     // CV_32F
+  std::vector<cv::Mat> masks;      // CV_8U, 255 where the frame saw the target
+  std::vector<cv::Mat> gradients;  // CV_32F, gradient magnitude of each level
+  double px_per_m = 0;             // level-0 template pixels per metre
 };
 
 std::string PlanarTargetOptions::validate() const {
   if (model != "perspective" && model != "homography")
     return "planar_tracking.model: must be perspective or homography (got '" + model + "')";
   if (!(loss_scale > 0)) return "planar_tracking.loss_scale: must be > 0";
-  if (max_iterations < 1 || max_iterations > 200) return "planar_tracking.max_iterations: must be in [1, 200]";
+  if (max_iterations < 1 || max_iterations > 200)
+    return "planar_tracking.max_iterations: must be in [1, 200]";
   if (!(outlier_error > 0)) return "planar_tracking.outlier_error: must be > 0";
   if (!(join_error > 0)) return "planar_tracking.join_error: must be > 0";
   if (min_points < 4) return "planar_tracking.min_points: must be >= 4";
   if (!(confidence_points >= 1)) return "planar_tracking.confidence_points: must be >= 1";
-  if (template_size < 32 || template_size > 2048) return "planar_tracking.template_size: must be in [32, 2048]";
+  if (template_size < 32 || template_size > 2048)
+    return "planar_tracking.template_size: must be in [32, 2048]";
+  if (refine_iterations < 1 || refine_iterations > 500)
+    return "planar_tracking.refine_iterations: must be in [1, 500]";
+  if (!(refine_epsilon > 0)) return "planar_tracking.refine_epsilon: must be > 0";
+  if (!(refine_min_visible > 0 && refine_min_visible <= 1))
+    return "planar_tracking.refine_min_visible: must be in (0, 1]";
+  if (!(refine_outlier_sigma > 0)) return "planar_tracking.refine_outlier_sigma: must be > 0";
+  if (!(refine_max_step > 0)) return "planar_tracking.refine_max_step: must be > 0";
   if (!(refine_min_correlation > 0 && refine_min_correlation < 1))
     return "planar_tracking.refine_min_correlation: must be in (0, 1)";
   if (!(refine_max_correction > 0 && refine_max_correction <= 1))
     return "planar_tracking.refine_max_correction: must be in (0, 1]";
-  if (!(image_memory_mb >= 0 && image_memory_mb <= 1e6)) return "planar_tracking.image_memory_mb: must be >= 0";
+  if (!(prediction_gate > 0)) return "planar_tracking.prediction_gate: must be > 0";
+  if (!(refine_search_below >= 0 && refine_search_below <= 1))
+    return "planar_tracking.refine_search_below: must be in [0, 1]";
+  if (!(refine_search_range >= 0 && refine_search_range <= 1))
+    return "planar_tracking.refine_search_range: must be in [0, 1]";
+  if (!(refine_search_min_score > 0 && refine_search_min_score < 1))
+    return "planar_tracking.refine_search_min_score: must be in (0, 1)";
+  if (!(refine_search_margin >= 0 && refine_search_margin < 1))
+    return "planar_tracking.refine_search_margin: must be in [0, 1)";
+  if (!(image_memory_mb >= 0 && image_memory_mb <= 1e6))
+    return "planar_tracking.image_memory_mb: must be >= 0";
   return "";
 }
 
 std::string validateQuad(const std::array<cv::Point2d, 4>& c) {
   for (const auto& p : c)
-    if (!std::isfinite(p.x) || !std::isfinite(p.y)) return "corner with a NaN or infinite coordinate";
+    if (!std::isfinite(p.x) || !std::isfinite(p.y))
+      return "corner with a NaN or infinite coordinate";
   for (int i = 0; i < 4; ++i)
     for (int j = i + 1; j < 4; ++j)
-      if (cv::norm(c[i] - c[j]) < 2.0) return "corners " + std::to_string(i) + " and " + std::to_string(j) + " coincide";
+      if (cv::norm(c[i] - c[j]) < 2.0)
+        return "corners " + std::to_string(i) + " and " + std::to_string(j) + " coincide";
   int sign = 0;
   for (int i = 0; i < 4; ++i) {
     const cv::Point2d a = c[(i + 1) % 4] - c[i], b = c[(i + 2) % 4] - c[(i + 1) % 4];
@@ -205,10 +185,12 @@ std::string validateQuad(const std::array<cv::Point2d, 4>& c) {
   return "";
 }
 
-std::string validateTargetRequest(const std::array<cv::Point2d, 4>& corners, double width_m, double height_m) {
+std::string validateTargetRequest(const std::array<cv::Point2d, 4>& corners, double width_m,
+                                  double height_m) {
   if (std::string e = validateQuad(corners); !e.empty()) return e;
   if (!(width_m > 0) || !(height_m > 0) || !std::isfinite(width_m) || !std::isfinite(height_m))
-    return "target size must be positive (got " + std::to_string(width_m) + " x " + std::to_string(height_m) + " m)";
+    return "target size must be positive (got " + std::to_string(width_m) + " x " +
+           std::to_string(height_m) + " m)";
   return "";
 }
 
@@ -243,7 +225,8 @@ std::unique_ptr<PlanarTargetTracker> PlanarTargetTracker::create(
   // Every feature inside the quad now lies on the target plane.
   for (const FeatureMotion& f : md.features) {
     Eigen::Vector2d xy;
-    if (cv::pointPolygonTest(std::vector<cv::Point2f>(corners.begin(), corners.end()), cv::Point2f(f.x, f.y), false) > 0 &&
+    if (cv::pointPolygonTest(std::vector<cv::Point2f>(corners.begin(), corners.end()),
+                             cv::Point2f(f.x, f.y), false) > 0 &&
         t->backProject({f.x, f.y}, &xy))
       t->model_[f.id] = xy;
   }
@@ -256,7 +239,8 @@ std::unique_ptr<PlanarTargetTracker> PlanarTargetTracker::create(
 
 bool PlanarTargetTracker::poseFromCorners(const std::array<cv::Point2d, 4>& corners) {
   std::vector<cv::Point3d> obj;
-  for (const auto& p : targetCorners(state_.width_m, state_.height_m)) obj.emplace_back(p.x(), p.y(), p.z());
+  for (const auto& p : targetCorners(state_.width_m, state_.height_m))
+    obj.emplace_back(p.x(), p.y(), p.z());
   const std::vector<cv::Point2d> img(corners.begin(), corners.end());
   const cv::Matx33d K(k_.fx, 0, k_.cx, 0, k_.fy, k_.cy, 0, 0, 1);
   cv::Vec3d rvec, tvec;
@@ -321,8 +305,9 @@ void PlanarTargetTracker::addNewPoints(const MotionData& md) {
       continue;
     }
     // Second observation: its first plane position must reproject here.
-    const double err = (project({c->second.x(), c->second.y(), 0}) - Eigen::Vector2d(f.x, f.y)).norm();
-    if (err < options_.join_error) {
+    const double err =
+        (project({c->second.x(), c->second.y(), 0}) - Eigen::Vector2d(f.x, f.y)).norm();
+    if (err < std::max(options_.join_error, 1.5 * residual_level_)) {
       model_[f.id] = 0.5 * (c->second + xy);
     } else {
       rejected[f.id] = true;  // off the plane or moving on its own
@@ -332,7 +317,7 @@ void PlanarTargetTracker::addNewPoints(const MotionData& md) {
   rejected_ = std::move(rejected);
 }
 
-void PlanarTargetTracker::stepPerspective(const MotionData& md) {
+void PlanarTargetTracker::stepPerspective(const MotionData& md, const Eigen::Matrix3d* H) {
   std::vector<PlaneObservation> obs;
   for (const FeatureMotion& f : md.features) {
     const auto m = model_.find(f.id);
@@ -341,53 +326,88 @@ void PlanarTargetTracker::stepPerspective(const MotionData& md) {
   state_.points = static_cast<int>(obs.size());
   if (static_cast<int>(obs.size()) < options_.min_points) return;
 
+  const Eigen::Isometry3d T_last = state_.T_cam_target;
   if (!fitPose(obs, k_, options_.loss_scale, options_.max_iterations, &state_.T_cam_target)) {
     state_.points = 0;
     return;
   }
+  // A pose resting on few points that puts the target far from where the
+  // camera motion moves it is not used: when something passes in front of
+  // the target, the last features left are those its edge drags along, and
+  // they would take the pose (and the model, as they outvote the rest) with
+  // them. The camera motion predicts it instead (step()).
+  if (H && static_cast<int>(obs.size()) < 2 * options_.min_points) {
+    double gap = 0;
+    const auto corners = targetCorners(state_.width_m, state_.height_m);
+    for (int i = 0; i < 4; ++i) {
+      const Eigen::Vector3d p = *H * Eigen::Vector3d(state_.corners[i].x, state_.corners[i].y, 1);
+      gap = std::max(gap, (project(corners[i]) - p.head<2>() / p.z()).norm());
+    }
+    if (gap > options_.prediction_gate * longestEdge(state_.corners) + 1.0) {
+      state_.T_cam_target = T_last;
+      state_.points = 0;
+      return;
+    }
+  }
 
-  dropDisagreeingPoints(md);
+  dropDisagreeingPoints(md, false);
 }
 
 // Drops model points that disagree with the pose (occluders, off-plane, long
 // feature tracks that drifted); `points` and `rms_error` count the others.
-void PlanarTargetTracker::dropDisagreeingPoints(const MotionData& md) {
-  double sq = 0;
-  int inliers = 0;
+// "Disagree" is relative to how well the points fit at all: features measured
+// on a downscaled frame, or intrinsics that are only assumed, leave every point
+// a pixel or two off, and a fixed threshold would then drop good points one by
+// one. With `reanchor` (the pose comes from the appearance alignment, which
+// does not drift) the points that stay move on the plane to where they are
+// seen now, so the model follows its features' slow drift.
+void PlanarTargetTracker::dropDisagreeingPoints(const MotionData& md, bool reanchor) {
+  std::vector<std::pair<std::map<uint32_t, Eigen::Vector2d>::iterator, const FeatureMotion*>> seen;
+  std::vector<double> errors;
   for (const FeatureMotion& f : md.features) {
     const auto m = model_.find(f.id);
     if (m == model_.end()) continue;
-    const double e = (project({m->second.x(), m->second.y(), 0}) - Eigen::Vector2d(f.x, f.y)).norm();
-    if (e > options_.outlier_error) {
-      model_.erase(m);
-      rejected_[f.id] = true;
-    } else {
-      sq += e * e;
-      ++inliers;
+    seen.emplace_back(m, &f);
+    errors.push_back(
+        (project({m->second.x(), m->second.y(), 0}) - Eigen::Vector2d(f.x, f.y)).norm());
+  }
+  if (!errors.empty()) {
+    std::vector<double> sorted = errors;
+    std::nth_element(sorted.begin(), sorted.begin() + sorted.size() / 2, sorted.end());
+    // The median of a 2D Gaussian residual's norm is 1.18 sigma; smoothed
+    // over frames, since a few points give a noisy median.
+    const double level = sorted[sorted.size() / 2] / 1.18;
+    residual_level_ = residual_level_ > 0 ? 0.8 * residual_level_ + 0.2 * level : level;
+  }
+  const double limit = std::max(options_.outlier_error, 3.0 * residual_level_);
+  double sq = 0;
+  int inliers = 0;
+  for (size_t i = 0; i < seen.size(); ++i) {
+    const double e = errors[i];
+    if (e > limit) {
+      rejected_[seen[i].first->first] = true;
+      model_.erase(seen[i].first);
+      continue;
     }
+    sq += e * e;
+    ++inliers;
+    Eigen::Vector2d xy;
+    if (reanchor && backProject({seen[i].second->x, seen[i].second->y}, &xy))
+      seen[i].first->second = xy;
   }
   state_.points = inliers;
   state_.rms_error = inliers ? std::sqrt(sq / inliers) : 0;
 }
 
 Eigen::Matrix3d PlanarTargetTracker::planeToImage() const {
-  const Eigen::Matrix3d K = (Eigen::Matrix3d() << k_.fx, 0, k_.cx, 0, k_.fy, k_.cy, 0, 0, 1).finished();
+  const Eigen::Matrix3d K =
+      (Eigen::Matrix3d() << k_.fx, 0, k_.cx, 0, k_.fy, k_.cy, 0, 0, 1).finished();
   Eigen::Matrix3d Rt;
   Rt.col(0) = state_.T_cam_target.linear().col(0);
   Rt.col(1) = state_.T_cam_target.linear().col(1);
   Rt.col(2) = state_.T_cam_target.translation();
   return K * Rt;
 }
-
-namespace {
-
-double longestEdge(const std::array<cv::Point2d, 4>& c) {
-  double e = 0;
-  for (int i = 0; i < 4; ++i) e = std::max(e, cv::norm(c[(i + 1) % 4] - c[i]));
-  return e;
-}
-
-}  // namespace
 
 // The target's look at placement: the frame resampled onto the target plane
 // at about the resolution it was seen with (at most template_size px).
@@ -402,11 +422,12 @@ bool PlanarTargetTracker::captureAppearance(const cv::Mat& gray) {
   a->px_per_m = W / w;
   const int li = imageLevelFor(seen / long_px);
   cv::Mat tpl, valid;
-  sampleOnTemplate(pyramidLevel(gray, li), toPyramidPixel(li) * planeToImage() * templateToPlane(a->px_per_m, 0, w, h),
-                   cv::Size(W, H), &tpl, &valid);
+  sampleImage(gray, li, planeToImage() * templateToPlane(a->px_per_m, 0, w, h), cv::Size(W, H),
+              &tpl, &valid);
   cv::Scalar mean, stddev;
   cv::meanStdDev(tpl, mean, stddev, valid);
-  if (cv::countNonZero(valid) < 0.5 * W * H || stddev[0] < 2.0) return false;  // mostly unseen, or featureless
+  if (cv::countNonZero(valid) < 0.5 * W * H || stddev[0] < 2.0)
+    return false;  // mostly unseen, or featureless
   a->levels.push_back(tpl);
   a->masks.push_back(valid);
   while (std::min(a->levels.back().cols, a->levels.back().rows) >= 48 && a->levels.size() < 5) {
@@ -417,70 +438,213 @@ bool PlanarTargetTracker::captureAppearance(const cv::Mat& gray) {
     a->levels.push_back(down);
     a->masks.push_back(mask);
   }
+  for (const cv::Mat& l : a->levels) a->gradients.push_back(gradientMagnitude(l));
   appearance_ = std::move(a);
   return true;
 }
 
 // Aligns the appearance at placement with `gray` by ECC (OpenCV's
 // findTransformECC, a homography on the rectified target, coarse to fine),
-// starting from the current pose, then fits the rigid pose to the aligned
-// plane. The alignment is used only when it correlates well and corrects the
-// pose by a plausible amount (an occluder or a wrong basin does neither).
+// starting from the plane-to-image homography `*G` (updated). Whatever covers
+// part of the target (an occluder) is masked out: after each alignment the
+// template pixels the frame does not explain are found (unoccludedPixels) and,
+// when they changed, the alignment is redone from the same start without
+// them, so an occluder cannot drag the target. `seen` (optional, on the
+// template, e.g. from search()) excludes parts known to be covered from the
+// start: with much of the target covered, the photometric fit behind
+// unoccludedPixels may take the occluder for the target. False when the
+// alignment failed; else `*cc` (ECC correlation) and `*visible` (fraction of the target
+// in view seen uncovered) say how well it fits.
+bool PlanarTargetTracker::align(const cv::Mat& gray, Eigen::Matrix3d* G, double* cc,
+                                double* visible, const cv::Mat& seen) const {
+  const Appearance& a = *appearance_;
+  const double w = state_.width_m, h = state_.height_m;
+  const double r0 = longestEdge(state_.corners) /
+                    std::max(a.levels[0].cols, a.levels[0].rows);  // image px per template px
+  const int top = static_cast<int>(a.levels.size()) - 1;
+  const int lt = r0 >= 1 ? 0 : std::min(top, static_cast<int>(std::lround(std::log2(1 / r0))));
+  const cv::TermCriteria criteria(cv::TermCriteria::COUNT | cv::TermCriteria::EPS,
+                                  options_.refine_iterations, options_.refine_epsilon);
+  cv::Mat keep;  // template pixels (current level) not covered by anything
+  *cc = 0;
+  *visible = 0;
+  for (int l = std::min(top, lt + 1); l >= lt; --l) {
+    const int li = imageLevelFor(r0 * (1 << l));
+    const Eigen::Matrix3d A = templateToPlane(a.px_per_m, l, w, h);
+    const cv::Mat& tpl = a.levels[l];
+    cv::Mat warped, valid;
+    sampleImage(gray, li, *G * A, tpl.size(), &warped, &valid);
+    cv::bitwise_and(valid, a.masks[l], valid);
+    const int n_valid = cv::countNonZero(valid);
+    if (n_valid < 0.25 * valid.total()) return false;  // mostly outside the frame
+    cv::Mat seen_here;  // the part a search saw uncovered, at this level
+    if (!seen.empty()) {
+      cv::resize(seen, seen_here, tpl.size(), 0, 0, cv::INTER_NEAREST);
+      cv::bitwise_and(valid, seen_here, valid);
+    }
+    if (keep.empty()) {  // what covers the target where it is predicted
+      keep =
+          unoccludedPixels(tpl, a.gradients[l], warped, valid, options_.refine_outlier_sigma, 2.0);
+    } else {
+      cv::resize(keep, keep, tpl.size(), 0, 0, cv::INTER_NEAREST);
+      cv::bitwise_and(keep, valid, keep);
+    }
+    cv::Mat warp;
+    for (int round = 0; round < 3; ++round) {
+      warp = cv::Mat::eye(3, 3, CV_32F);
+      if (cv::countNonZero(keep) < 0.1 * valid.total())
+        return false;  // hardly anything left to align
+      try {
+        *cc = cv::findTransformECC(tpl, warped, warp, cv::MOTION_HOMOGRAPHY, criteria, keep, 5);
+      } catch (const cv::Exception&) {
+        return false;  // did not converge (uncorrelated images)
+      }
+      cv::Mat aligned, aligned_valid;
+      cv::warpPerspective(warped, aligned, warp, tpl.size(),
+                          cv::INTER_LINEAR | cv::WARP_INVERSE_MAP);
+      cv::warpPerspective(valid, aligned_valid, warp, tpl.size(),
+                          cv::INTER_NEAREST | cv::WARP_INVERSE_MAP);
+      cv::bitwise_and(aligned_valid, valid, aligned_valid);
+      const cv::Mat now = unoccludedPixels(tpl, a.gradients[l], aligned, aligned_valid,
+                                           options_.refine_outlier_sigma, 0.5);
+      // Realigned only when a real part of the target turned out covered.
+      const int newly_covered = cv::countNonZero(keep & ~now);
+      keep = now;
+      if (newly_covered < 0.05 * n_valid) break;
+    }
+    *visible = static_cast<double>(cv::countNonZero(keep)) / n_valid;
+    Eigen::Matrix3d C;
+    for (int r = 0; r < 3; ++r)
+      for (int c = 0; c < 3; ++c) C(r, c) = warp.at<float>(r, c);
+    if (!C.allFinite()) return false;
+    *G = *G * A * C * A.inverse();
+  }
+  return true;
+}
+
+// Looks for the appearance at placement in a window around where the
+// plane-to-image homography `*G` puts it (re-acquisition after the target
+// was lost to an occluder or drifted beyond ECC's reach): the frame is
+// resampled on the grid of a coarse template level widened by
+// refine_search_range of the target's size on each side, and searchTemplate
+// finds the shift. True with `*G` moved there and `*seen` the part of the
+// template that matched (searchTemplate), when the best match is strong and
+// clearly better than any other (a repeated pattern or a target not in the
+// window gives no answer).
+bool PlanarTargetTracker::search(const cv::Mat& gray, Eigen::Matrix3d* G, cv::Mat* seen) const {
+  const Appearance& a = *appearance_;
+  const double w = state_.width_m, h = state_.height_m;
+  const double r0 = longestEdge(state_.corners) / std::max(a.levels[0].cols, a.levels[0].rows);
+  const int top = static_cast<int>(a.levels.size()) - 1;
+  const int lt = r0 >= 1 ? 0 : std::min(top, static_cast<int>(std::lround(std::log2(1 / r0))));
+  int ls = lt;  // the coarsest level still about kMinSearchSide px on its short side
+  while (ls < top && std::min(a.levels[ls + 1].cols, a.levels[ls + 1].rows) >= kMinSearchSide) ++ls;
+  const cv::Mat& tpl = a.levels[ls];
+  const int margin =
+      static_cast<int>(std::ceil(options_.refine_search_range * std::max(tpl.cols, tpl.rows)));
+  const Eigen::Matrix3d A = templateToPlane(a.px_per_m, ls, w, h);
+  Eigen::Matrix3d widen = Eigen::Matrix3d::Identity();
+  widen(0, 2) = widen(1, 2) = -margin;
+  cv::Mat window, valid;
+  sampleImage(gray, imageLevelFor(r0 * (1 << ls)), *G * A * widen,
+              cv::Size(tpl.cols + 2 * margin, tpl.rows + 2 * margin), &window, &valid);
+  const SearchMatch m = searchTemplate(tpl, a.masks[ls], window, margin);
+  if (!(m.score >= options_.refine_search_min_score) ||
+      !(m.score - m.second >= options_.refine_search_margin))
+    return false;
+  Eigen::Matrix3d S = Eigen::Matrix3d::Identity();
+  S(0, 2) = m.shift.x;
+  S(1, 2) = m.shift.y;
+  *G = *G * A * S * A.inverse();
+  *seen = m.seen;
+  return true;
+}
+
+// Aligns the appearance at placement with `gray` (align()), from the current
+// pose or, when that fails or fits loosely or the target was not aligned on
+// the last frame, from where a search (search()) finds it, then fits the
+// rigid pose to the aligned plane. The alignment is used only when enough of
+// the target is seen, it correlates well and it moves the target by a
+// plausible amount from where it started: a target aligned on the last frame
+// moves little from where the features or the camera motion put it (the
+// longer it went unaligned, the farther), and an alignment started at a
+// search's unambiguous match (anywhere in the search window) moves as little
+// from that match.
 bool PlanarTargetTracker::refine(const cv::Mat& gray) {
   state_.correlation = 0;
+  state_.visible = 0;
   if (gray.empty() || gray.type() != CV_8UC1) return false;
   if (!appearance_) {
     captureAppearance(gray);
     return false;
   }
-  const Appearance& a = *appearance_;
   const double w = state_.width_m, h = state_.height_m;
   const double seen = longestEdge(state_.corners);
-  const double r0 = seen / std::max(a.levels[0].cols, a.levels[0].rows);  // image px per level-0 template px
-  const int top = static_cast<int>(a.levels.size()) - 1;
-  const int lt = r0 >= 1 ? 0 : std::min(top, static_cast<int>(std::lround(std::log2(1 / r0))));
-  Eigen::Matrix3d G = planeToImage();
-  double cc = 0;
-  for (int l = std::min(top, lt + 1); l >= lt; --l) {
-    const int li = imageLevelFor(r0 * (1 << l));
-    const Eigen::Matrix3d A = templateToPlane(a.px_per_m, l, w, h);
-    cv::Mat warped, valid;
-    sampleOnTemplate(pyramidLevel(gray, li), toPyramidPixel(li) * G * A, a.levels[l].size(), &warped, &valid);
-    cv::bitwise_and(valid, a.masks[l], valid);
-    if (cv::countNonZero(valid) < 0.25 * valid.total()) return false;  // mostly outside the frame
-    cv::Mat warp = cv::Mat::eye(3, 3, CV_32F);
-    try {
-      cc = cv::findTransformECC(a.levels[l], warped, warp, cv::MOTION_HOMOGRAPHY,
-                                cv::TermCriteria(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, 30, 1e-4),
-                                valid, 5);
-    } catch (const cv::Exception&) {
-      return false;  // did not converge (uncorrelated images)
+  const double allowed =
+      std::min(options_.refine_max_correction, options_.refine_max_step * (1 + frames_unaligned_)) *
+          seen +
+      1.0;
+  const Eigen::Matrix3d G0 = planeToImage();
+  // How far the aligned plane `G` moves the target's corners from `from`.
+  const auto correction = [&](const Eigen::Matrix3d& G, const Eigen::Matrix3d& from) {
+    double c = 0;
+    for (const Eigen::Vector3d& p : targetCorners(w, h)) {
+      const Eigen::Vector3d a = G * Eigen::Vector3d(p.x(), p.y(), 1);
+      const Eigen::Vector3d b = from * Eigen::Vector3d(p.x(), p.y(), 1);
+      if (!(a.z() > 0) || !(b.z() > 0)) return 1e18;
+      c = std::max(c, (a.head<2>() / a.z() - b.head<2>() / b.z()).norm());
     }
-    Eigen::Matrix3d C;
-    for (int r = 0; r < 3; ++r)
-      for (int c = 0; c < 3; ++c) C(r, c) = warp.at<float>(r, c);
-    if (!C.allFinite()) return false;
-    G = G * A * C * A.inverse();
+    return c;
+  };
+  const auto usable = [&](const Eigen::Matrix3d& G, const Eigen::Matrix3d& from, double cc,
+                          double visible) {
+    return cc >= options_.refine_min_correlation && visible >= options_.refine_min_visible &&
+           correction(G, from) <= allowed;
+  };
+  Eigen::Matrix3d G = G0;
+  double cc = 0, visible = 0;
+  bool ok = false;
+  // A target aligned on the last frame: from where it is now.
+  if (frames_unaligned_ == 0) ok = align(gray, &G, &cc, &visible) && usable(G, G0, cc, visible);
+  // Otherwise, or when that failed or fits only loosely (something covering
+  // the target may have dragged it), from where a search finds it (anywhere
+  // in its window), without the part the search saw covered; the alignment
+  // then only refines what the search found. The better fit is kept.
+  cv::Mat seen_by_search;
+  Eigen::Matrix3d G_found = G0;
+  if ((!ok || cc < options_.refine_search_below) && options_.refine_search_range > 0 &&
+      search(gray, &G_found, &seen_by_search)) {
+    Eigen::Matrix3d G_s = G_found;
+    double cc_s = 0, visible_s = 0;
+    if (align(gray, &G_s, &cc_s, &visible_s, seen_by_search) &&
+        usable(G_s, G_found, cc_s, visible_s) && (!ok || cc_s > cc)) {
+      G = G_s;
+      cc = cc_s;
+      visible = visible_s;
+      ok = true;
+    }
   }
-  if (!(cc >= options_.refine_min_correlation)) return false;
+  // No clear match: from where it is now, as far as a step allows.
+  if (!ok && frames_unaligned_ > 0) {
+    G = G0;
+    ok = align(gray, &G, &cc, &visible) && usable(G, G0, cc, visible);
+  }
+  if (!ok) return false;
   // The aligned plane, seen through a grid of points, gives the rigid pose.
   std::vector<PlaneObservation> grid;
-  double correction = 0;
   for (int i = 0; i <= 4; ++i) {
     for (int j = 0; j <= 4; ++j) {
       const Eigen::Vector2d xy((i / 4.0 - 0.5) * w, (j / 4.0 - 0.5) * h);
       const Eigen::Vector3d p = G * Eigen::Vector3d(xy.x(), xy.y(), 1);
       if (!(p.z() > 0)) return false;
       grid.push_back({0, xy, p.head<2>() / p.z()});
-      if ((i == 0 || i == 4) && (j == 0 || j == 4))
-        correction = std::max(correction, (grid.back().uv - project({xy.x(), xy.y(), 0})).norm());
     }
   }
-  if (correction > options_.refine_max_correction * seen + 1.0) return false;
   Eigen::Isometry3d T = state_.T_cam_target;
   if (!fitPose(grid, k_, 0, options_.max_iterations, &T)) return false;
   state_.T_cam_target = T;
   state_.correlation = cc;
+  state_.visible = visible;
   return true;
 }
 
@@ -530,26 +694,31 @@ void PlanarTargetTracker::predict(const Eigen::Matrix3d& H) {
   }
 }
 
-const PlanarTargetState& PlanarTargetTracker::step(const MotionData& md, const Eigen::Matrix3d& H_last_to_this,
+const PlanarTargetState& PlanarTargetTracker::step(const MotionData& md,
+                                                   const Eigen::Matrix3d& H_last_to_this,
                                                    bool H_valid, const cv::Mat& gray) {
   state_.stamp = md.stamp;
   state_.correlation = 0;
+  state_.visible = 0;
   if (state_.status == TargetStatus::kLost) return state_;
   const bool perspective = options_.model == "perspective";
+  const bool predictable = H_valid && H_last_to_this.allFinite();
   if (perspective) {
-    stepPerspective(md);
+    stepPerspective(md, predictable ? &H_last_to_this : nullptr);
   } else {
     stepHomography(md);
   }
   bool measured = state_.points >= options_.min_points;
   if (measured && perspective) projectCorners();
-  if (!measured && H_valid && H_last_to_this.allFinite()) predict(H_last_to_this);
+  if (!measured && predictable) predict(H_last_to_this);
   if (perspective && options_.refine && !gray.empty() &&
       fractionInside(state_.corners, md.width, md.height) > 0.2 && refine(gray)) {
+    frames_unaligned_ = 0;
     projectCorners();
-    dropDisagreeingPoints(md);
+    dropDisagreeingPoints(md, true);
     measured = true;
   }
+  if (state_.correlation == 0) ++frames_unaligned_;
   // Back in view after a prediction: features inside the predicted quad
   // become candidates, and the rigid fit takes over once enough join.
   if (measured || fractionInside(state_.corners, md.width, md.height) > 0.05) addNewPoints(md);

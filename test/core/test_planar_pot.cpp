@@ -10,14 +10,16 @@
 #include "instant_motion_tracking/core/planar_target_manager.h"
 
 #include <gtest/gtest.h>
+#include <opencv2/calib3d.hpp>
 #include <opencv2/imgcodecs.hpp>
 
+#include <sys/stat.h>
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
+#include <ctime>
 #include <fstream>
 #include <sstream>
-#include <sys/stat.h>
 
 namespace imt {
 namespace {
@@ -46,11 +48,32 @@ std::vector<std::vector<double>> readRows(const std::string& path) {
   return rows;
 }
 
+// Assumed horizontal field of view of the phone videos (POT gives no
+// intrinsics).
+constexpr double kFieldOfViewDeg = 60.0;
+
+// The target's height / width, from its frame-1 quad seen through the assumed
+// intrinsics (0 when the quad does not rectify): the homography H from the
+// unit square to the quad is K [w r1, h r2, t] up to scale, so the column
+// norms of K^-1 H give the aspect ratio. The user gives the physical size;
+// POT does not, and this is what it implies under the assumed K.
+double rectifiedAspect(const std::array<cv::Point2d, 4>& c, const CameraIntrinsics& k) {
+  const std::vector<cv::Point2d> square = {{0, 0}, {1, 0}, {1, 1}, {0, 1}};
+  const cv::Mat H = cv::findHomography(square, std::vector<cv::Point2d>(c.begin(), c.end()));
+  if (H.empty()) return 0;
+  const cv::Matx33d K(k.fx, 0, k.cx, 0, k.fy, k.cy, 0, 0, 1);
+  const cv::Matx33d M = K.inv() * cv::Matx33d(H);
+  const double w = std::hypot(std::hypot(M(0, 0), M(1, 0)), M(2, 0));
+  const double h = std::hypot(std::hypot(M(0, 1), M(1, 1)), M(2, 1));
+  return w > 0 ? h / w : 0;
+}
+
 struct PotResult {
   double precision = 0;
   int scored = 0;
   double fps = 0;
   double median_error = 0;
+  double max_error = 0;
 };
 
 PotResult runPot(const std::string& seq, int frames, const std::string& model) {
@@ -69,9 +92,9 @@ PotResult runPot(const std::string& seq, int frames, const std::string& model) {
   PlanarTargetManager targets(po);
   std::array<cv::Point2d, 4> c0;
   for (int i = 0; i < 4; ++i) c0[i] = cv::Point2d(gt[0][2 * i], gt[0][2 * i + 1]);
-  const double w = 0.5 * (cv::norm(c0[1] - c0[0]) + cv::norm(c0[2] - c0[3]));
-  const double h = 0.5 * (cv::norm(c0[3] - c0[0]) + cv::norm(c0[2] - c0[1]));
-  double seconds = 0;
+  double seconds = 0, tracking_seconds = 0;  // wall time: analysis + tracking; tracking alone
+  double cpu_seconds = 0,
+         cpu_tracking_seconds = 0;  // the same in CPU time (all threads): stable on a busy machine
   std::vector<double> errors;
   uint32_t id = 0;
   for (int f = 1; f <= frames; ++f) {
@@ -81,24 +104,38 @@ PotResult runPot(const std::string& seq, int frames, const std::string& model) {
     EXPECT_FALSE(gray.empty()) << name;
     if (gray.empty()) return res;
     const auto t0 = std::chrono::steady_clock::now();
+    const std::clock_t cpu0 = std::clock();
     std::string err;
     cache.push(analyzer.process(gray, f / 30.0), &err, gray);
+    const auto t1 = std::chrono::steady_clock::now();
+    const std::clock_t cpu1 = std::clock();
     std::vector<PlanarTargetState> states;
     if (f == 1) {
-      const CameraIntrinsics k = CameraIntrinsics::fromFieldOfView(gray.cols, gray.rows, 60.0);
-      EXPECT_TRUE(targets.add(0, 0, c0, w / 1000.0, h / 1000.0, k, cache, &id, &err)) << err;
+      const CameraIntrinsics k =
+          CameraIntrinsics::fromFieldOfView(gray.cols, gray.rows, kFieldOfViewDeg);
+      const double aspect = rectifiedAspect(c0, k);
+      EXPECT_GT(aspect, 0);
+      EXPECT_TRUE(targets.add(0, 0, c0, 1.0, aspect, k, cache, &id, &err)) << err;
     } else {
       states = targets.update(cache);
     }
-    seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    const auto t2 = std::chrono::steady_clock::now();
+    seconds += std::chrono::duration<double>(t2 - t0).count();
+    tracking_seconds += std::chrono::duration<double>(t2 - t1).count();
+    const std::clock_t cpu2 = std::clock();
+    cpu_seconds += static_cast<double>(cpu2 - cpu0) / CLOCKS_PER_SEC;
+    cpu_tracking_seconds += static_cast<double>(cpu2 - cpu1) / CLOCKS_PER_SEC;
     const auto& g = gt[f - 1];
     const bool annotated = g.size() == 8 && (g[0] != 0 || g[1] != 0);
-    if (f == 1 || !annotated || flags[f - 1].empty() || flags[f - 1][0] != 0 || states.empty()) continue;
+    if (f == 1 || !annotated || flags[f - 1].empty() || flags[f - 1][0] != 0 || states.empty())
+      continue;
     double sq = 0;
-    for (int i = 0; i < 4; ++i) sq += std::pow(cv::norm(states[0].corners[i] - cv::Point2d(g[2 * i], g[2 * i + 1])), 2);
+    for (int i = 0; i < 4; ++i)
+      sq += std::pow(cv::norm(states[0].corners[i] - cv::Point2d(g[2 * i], g[2 * i + 1])), 2);
     errors.push_back(std::sqrt(sq / 4));
     if (std::getenv("IMT_TEST_TRACE"))  // per-frame trace for tuning
-      std::printf("%d err %.2f cc %.3f pts %d st %d\n", f, errors.back(), states[0].correlation, states[0].points,
+      std::printf("%d err %.2f cc %.3f visible %.2f pts %d rms %.2f st %d\n", f, errors.back(),
+                  states[0].correlation, states[0].visible, states[0].points, states[0].rms_error,
                   static_cast<int>(states[0].status));
   }
   int good = 0;
@@ -108,8 +145,14 @@ PotResult runPot(const std::string& seq, int frames, const std::string& model) {
   res.fps = frames / seconds;
   std::sort(errors.begin(), errors.end());
   res.median_error = errors.empty() ? 0 : errors[errors.size() / 2];
-  std::printf("POT %s (%s): P@5 %.2f over %d frames, median alignment error %.2f px, %.0f frames/s\n",
-              seq.c_str(), model.c_str(), res.precision, res.scored, res.median_error, res.fps);
+  res.max_error = errors.empty() ? 0 : errors.back();
+  std::printf(
+      "POT %s (%s): P@5 %.2f over %d frames, alignment error median %.2f px, worst %.2f px; %.0f "
+      "frames/s "
+      "(planar tracking alone %.1f ms/frame; CPU time %.0f frames/s, tracking %.1f ms/frame)\n",
+      seq.c_str(), model.c_str(), res.precision, res.scored, res.median_error, res.max_error,
+      res.fps, 1000 * tracking_seconds / frames, frames / cpu_seconds,
+      1000 * cpu_tracking_seconds / frames);
   return res;
 }
 
@@ -121,18 +164,23 @@ class Pot210 : public ::testing::TestWithParam<std::pair<const char*, int>> {
   }
 };
 
-// DISABLED until the planar tracker meets the bar (P@5 = 1.0 on both
-// sequences). Measured 2026-11-22 with the defaults: V25_2 P@5 0.52 (median
-// 4.4 px), V24_7 P@5 0.17 (median 15.3 px), ~330 frames/s; at full analysis
-// resolution V25_2 0.72 / V24_7 0.50. Run with --gtest_also_run_disabled_tests.
-TEST_P(Pot210, DISABLED_Perspective) {
+// The bar: every scored frame within 5 px (P@5 = 1.0) on both
+// sequences. The bar has no tolerance below 1.0 because the POT precision is a
+// count: one frame over 5 px is a lost frame. The margin is thin on V24_7,
+// measured with the defaults: frames 96-110 are the hard ones (a card covers
+// most of the target under motion blur; frame 98 is at 4.2 px from the
+// camera-motion prediction, 106 at 3.3 px after re-acquisition), the median is
+// 2.33 px, the worst 4.21 px; V25_2: median 2.00 px, worst 2.88 px.
+// IMT_TEST_TRACE=1 prints every frame.
+TEST_P(Pot210, Perspective) {
   const PotResult r = runPot(GetParam().first, GetParam().second, "perspective");
   EXPECT_EQ(r.scored, GetParam().first == std::string("V25_2") ? 25 : 52);
-  EXPECT_GE(r.precision, 1.0);
+  EXPECT_EQ(r.precision, 1.0);
 }
 
 INSTANTIATE_TEST_SUITE_P(Sequences, Pot210,
-                         ::testing::Values(std::make_pair("V25_2", 50), std::make_pair("V24_7", 110)),
+                         ::testing::Values(std::make_pair("V25_2", 50),
+                                           std::make_pair("V24_7", 110)),
                          [](const auto& info) { return std::string(info.param.first); });
 
 }  // namespace

@@ -57,8 +57,8 @@ class PosterOrbit : public ::testing::Test {
     const FrameTruth::Target& t0 = truth_[0].targets.at(0);
     uint32_t id;
     std::string err;
-    EXPECT_TRUE(m.add(t0.id, cache_->at(cache_->firstSeq()).stamp, t0.corners, t0.width_m, t0.height_m,
-                      scene_->intrinsics(), *cache_, &id, &err))
+    EXPECT_TRUE(m.add(t0.id, cache_->at(cache_->firstSeq()).stamp, t0.corners, t0.width_m,
+                      t0.height_m, scene_->intrinsics(), *cache_, &id, &err))
         << err;
     Errors e;
     for (uint64_t seq = cache_->firstSeq() + 1; seq <= cache_->lastSeq(); ++seq) {
@@ -69,17 +69,18 @@ class PosterOrbit : public ::testing::Test {
       for (int c = 0; c < 4; ++c) sq += std::pow(cv::norm(s.corners[c] - t.corners[c]), 2);
       e.corners.push_back(std::sqrt(sq / 4));
       if (std::getenv("IMT_TEST_TRACE"))  // per-frame trace for tuning
-        std::printf("%lu err %.2f cc %.3f pts %d st %d conf %.2f\n", (unsigned long)seq, e.corners.back(),
-                    s.correlation, s.points, (int)s.status, s.confidence);
+        std::printf("%lu err %.2f cc %.3f pts %d st %d conf %.2f\n", (unsigned long)seq,
+                    e.corners.back(), s.correlation, s.points, (int)s.status, s.confidence);
       const Eigen::AngleAxisd dR(t.T_cam_target.linear().transpose() * s.T_cam_target.linear());
       e.rot_deg.push_back(std::abs(dR.angle()) * 180 / M_PI);
       e.trans_rel.push_back((s.T_cam_target.translation() - t.T_cam_target.translation()).norm() /
                             t.T_cam_target.translation().norm());
     }
-    std::printf("%s: alignment error median %.3f p95 %.3f last %.3f px; rotation median %.3f deg; "
-                "translation median %.3f%%\n",
-                model.c_str(), percentile(e.corners, 0.5), percentile(e.corners, 0.95), e.corners.back(),
-                percentile(e.rot_deg, 0.5), 100 * percentile(e.trans_rel, 0.5));
+    std::printf(
+        "%s: alignment error median %.3f p95 %.3f last %.3f px; rotation median %.3f deg; "
+        "translation median %.3f%%\n",
+        model.c_str(), percentile(e.corners, 0.5), percentile(e.corners, 0.95), e.corners.back(),
+        percentile(e.rot_deg, 0.5), 100 * percentile(e.trans_rel, 0.5));
     return e;
   }
 
@@ -114,6 +115,94 @@ TEST_F(PosterOrbit, ChainedHomographyMeasuredForComparison) {
   // last frame: the chained model's skew drift). The bound only says it keeps
   // the poster; a broken option would lose it (tens of px).
   EXPECT_LT(percentile(h.corners, 0.5), 10.0);
+}
+
+// A textured card (0.30 x 0.35 m, 0.2 m in front of the poster) slides across
+// the poster and back while the camera orbits (the first 6 s of
+// poster_orbit). On the way there it covers up to ~40% of the poster, on the
+// way back (the camera closer, more parallax) up to ~80%; features on it move
+// unlike the poster's. The tracker must neither follow the card nor lose the
+// poster, and be back on it once the card has left.
+TEST(PosterOccluded, CardSlidingAcrossThePosterDoesNotDragIt) {
+  auto opt = SceneOptions::fromPreset("poster_orbit");
+  ASSERT_TRUE(opt);
+  opt->duration = 6.0;
+  const ScenePlane* poster = nullptr;
+  for (const ScenePlane& p : opt->planes)
+    if (p.kind == ScenePlane::Kind::kTarget) poster = &p;
+  ASSERT_TRUE(poster);
+  ScenePlane card;
+  card.kind = ScenePlane::Kind::kCard;
+  card.id = 2;
+  card.width_m = 0.30;
+  card.height_m = 0.35;
+  card.T_world_plane = poster->T_world_plane;
+  card.T_world_plane.translation().y() -= 0.2;  // in front: toward the camera
+  card.texture_seed = 77;
+  card.motion = "slide";  // x: A sin(wt - pi/2): from the left, across and back
+  card.motion_amplitude = 0.65;
+  card.motion_period = 6.0;
+  card.motion_phase = -M_PI / 2;
+  opt->planes.push_back(card);
+  std::string err;
+  auto scene = SceneGenerator::create(*opt, &err);
+  ASSERT_TRUE(scene) << err;
+
+  MotionAnalyzer analyzer{MotionAnalysisOptions()};
+  MotionCache cache(0.0);
+  cache.setImageBudget(size_t(1) << 30);
+  PlanarTargetManager targets{PlanarTargetOptions()};
+  std::vector<double> errors;
+  std::vector<double> covered;  // occluded fraction of the poster per frame (truth)
+  uint32_t id = 0;
+  for (int i = 0; i < scene->frameCount(); ++i) {
+    std::string reset;
+    const cv::Mat frame = scene->renderFrame(i);
+    cache.push(analyzer.process(frame, scene->frameStamp(i)), &reset, frame);
+    const FrameTruth truth = scene->frameTruth(i);
+    const FrameTruth::Target& t = truth.targets.at(0);
+    if (i == 0) {
+      ASSERT_TRUE(targets.add(t.id, scene->frameStamp(0), t.corners, t.width_m, t.height_m,
+                              scene->intrinsics(), cache, &id, &err))
+          << err;
+      continue;
+    }
+    const std::vector<PlanarTargetState> states = targets.update(cache);
+    ASSERT_EQ(states.size(), 1u);
+    double sq = 0;
+    for (int c = 0; c < 4; ++c) sq += std::pow(cv::norm(states[0].corners[c] - t.corners[c]), 2);
+    errors.push_back(std::sqrt(sq / 4));
+    covered.push_back(t.occluded_fraction);
+    if (std::getenv("IMT_TEST_TRACE"))  // per-frame trace for tuning
+      std::printf("%d err %.2f covered %.2f cc %.3f visible %.2f pts %d st %d\n", i, errors.back(),
+                  t.occluded_fraction, states[0].correlation, states[0].visible, states[0].points,
+                  static_cast<int>(states[0].status));
+  }
+  // Worst error over frames up to 40% covered, more covered, and after the
+  // card has left for good (none of the poster covered from then on).
+  double partly = 0, mostly = 0, after = 0, most_covered = 0;
+  size_t last_covered = 0;
+  for (size_t i = 0; i < errors.size(); ++i) {
+    double& worst = covered[i] <= 0.4 ? partly : mostly;
+    worst = std::max(worst, errors[i]);
+    most_covered = std::max(most_covered, covered[i]);
+    if (covered[i] > 0) last_covered = i;
+  }
+  ASSERT_LT(last_covered + 1, errors.size());
+  for (size_t i = last_covered + 1; i < errors.size(); ++i) after = std::max(after, errors[i]);
+  std::printf(
+      "occluded poster: up to %.0f%% covered; alignment error median %.3f px, worst %.2f px "
+      "up to 40%% covered, %.2f px more covered, %.3f px after the card left\n",
+      100 * most_covered, percentile(errors, 0.5), partly, mostly, after);
+  EXPECT_GE(most_covered, 0.7);  // the scene does what it says
+  // Measured 2.46 px, 8.20 px and 0.125 px: the card, which crosses hundreds
+  // of px, neither drags the poster nor makes it lost; while four fifths of
+  // it are covered the camera motion and the few features left carry it to
+  // within a few px, and once the card has left the alignment is as precise
+  // as without it (poster_orbit: median 0.027 px).
+  EXPECT_LE(partly, 4.0);
+  EXPECT_LE(mostly, 12.0);
+  EXPECT_LE(after, 0.5);
 }
 
 }  // namespace

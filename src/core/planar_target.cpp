@@ -1,5 +1,7 @@
 #include "instant_motion_tracking/core/planar_target.h"
 
+#include "instant_motion_tracking/core/option_checker.h"
+
 #include "planar_appearance.h"
 
 #include <ceres/ceres.h>
@@ -128,40 +130,35 @@ struct PlanarTargetTracker::Appearance {
 };
 
 std::string PlanarTargetOptions::validate() const {
-  if (model != "perspective" && model != "homography")
-    return "planar_tracking.model: must be perspective or homography (got '" + model + "')";
-  if (!(loss_scale > 0)) return "planar_tracking.loss_scale: must be > 0";
-  if (max_iterations < 1 || max_iterations > 200)
-    return "planar_tracking.max_iterations: must be in [1, 200]";
-  if (!(outlier_error > 0)) return "planar_tracking.outlier_error: must be > 0";
-  if (!(join_error > 0)) return "planar_tracking.join_error: must be > 0";
-  if (min_points < 4) return "planar_tracking.min_points: must be >= 4";
-  if (!(confidence_points >= 1)) return "planar_tracking.confidence_points: must be >= 1";
-  if (template_size < 32 || template_size > 2048)
-    return "planar_tracking.template_size: must be in [32, 2048]";
-  if (refine_iterations < 1 || refine_iterations > 500)
-    return "planar_tracking.refine_iterations: must be in [1, 500]";
-  if (!(refine_epsilon > 0)) return "planar_tracking.refine_epsilon: must be > 0";
-  if (!(refine_min_visible > 0 && refine_min_visible <= 1))
-    return "planar_tracking.refine_min_visible: must be in (0, 1]";
-  if (!(refine_outlier_sigma > 0)) return "planar_tracking.refine_outlier_sigma: must be > 0";
-  if (!(refine_max_step > 0)) return "planar_tracking.refine_max_step: must be > 0";
-  if (!(refine_min_correlation > 0 && refine_min_correlation < 1))
-    return "planar_tracking.refine_min_correlation: must be in (0, 1)";
-  if (!(refine_max_correction > 0 && refine_max_correction <= 1))
-    return "planar_tracking.refine_max_correction: must be in (0, 1]";
-  if (!(prediction_gate > 0)) return "planar_tracking.prediction_gate: must be > 0";
-  if (!(refine_search_below >= 0 && refine_search_below <= 1))
-    return "planar_tracking.refine_search_below: must be in [0, 1]";
-  if (!(refine_search_range >= 0 && refine_search_range <= 1))
-    return "planar_tracking.refine_search_range: must be in [0, 1]";
-  if (!(refine_search_min_score > 0 && refine_search_min_score < 1))
-    return "planar_tracking.refine_search_min_score: must be in (0, 1)";
-  if (!(refine_search_margin >= 0 && refine_search_margin < 1))
-    return "planar_tracking.refine_search_margin: must be in [0, 1)";
-  if (!(image_memory_mb >= 0 && image_memory_mb <= 1e6))
-    return "planar_tracking.image_memory_mb: must be >= 0";
-  return "";
+  OptionChecker c("planar_tracking");
+  c.check(model == "perspective" || model == "homography", "model", "must be perspective or homography",
+          "'" + model + "'");
+  c.check(loss_scale > 0, "loss_scale", "must be > 0", loss_scale);
+  c.inRange("max_iterations", max_iterations, 1, 200);
+  c.check(outlier_error > 0, "outlier_error", "must be > 0", outlier_error);
+  c.check(join_error > 0, "join_error", "must be > 0", join_error);
+  c.atLeast("min_points", min_points, 4);
+  c.atLeast("confidence_points", confidence_points, 1.0);
+  c.inRange("template_size", template_size, 32, 2048);
+  c.inRange("refine_iterations", refine_iterations, 1, 500);
+  c.check(refine_epsilon > 0, "refine_epsilon", "must be > 0", refine_epsilon);
+  c.check(refine_min_visible > 0 && refine_min_visible <= 1, "refine_min_visible", "must be in (0, 1]",
+          refine_min_visible);
+  c.check(refine_outlier_sigma > 0, "refine_outlier_sigma", "must be > 0", refine_outlier_sigma);
+  c.check(refine_max_step > 0, "refine_max_step", "must be > 0", refine_max_step);
+  c.check(refine_min_correlation > 0 && refine_min_correlation < 1, "refine_min_correlation", "must be in (0, 1)",
+          refine_min_correlation);
+  c.check(refine_max_correction > 0 && refine_max_correction <= 1, "refine_max_correction", "must be in (0, 1]",
+          refine_max_correction);
+  c.check(prediction_gate > 0, "prediction_gate", "must be > 0", prediction_gate);
+  c.inRange("refine_search_below", refine_search_below, 0.0, 1.0);
+  c.inRange("refine_search_range", refine_search_range, 0.0, 1.0);
+  c.check(refine_search_min_score > 0 && refine_search_min_score < 1, "refine_search_min_score",
+          "must be in (0, 1)", refine_search_min_score);
+  c.check(refine_search_margin >= 0 && refine_search_margin < 1, "refine_search_margin", "must be in [0, 1)",
+          refine_search_margin);
+  c.inRange("image_memory_mb", image_memory_mb, 0.0, 1e6);
+  return c.error();
 }
 
 std::string validateQuad(const std::array<cv::Point2d, 4>& c) {

@@ -177,7 +177,7 @@ void AnchorNodelet::track(const Pending& frame) {
     break;
   }
   if (anchors_pub_.getNumSubscribers() > 0) anchors_pub_.publish(toMsg(states, header));
-  if (config_.ros.publish_tf && !states.empty()) {
+  if (config_.ros.publish_tf && !states.empty() && !fromBeforeTimeJump(header.stamp)) {
     const auto transforms = anchorTransforms(states, header, config_.ros.frame_prefix);
     if (!transforms.empty()) tf_->sendTransform(transforms);
   }

@@ -136,7 +136,7 @@ void PlanarTargetNodelet::track(const instant_motion_tracking::MotionData& msg, 
   }
   const std::vector<PlanarTargetState> states = targets_->update(*cache_);
   if (targets_pub_.getNumSubscribers() > 0) targets_pub_.publish(toMsg(states, msg.header));
-  if (config_.ros.publish_tf && !states.empty()) {
+  if (config_.ros.publish_tf && !states.empty() && !fromBeforeTimeJump(msg.header.stamp)) {
     const auto transforms = planarTargetTransforms(states, msg.header, config_.ros.frame_prefix);
     if (!transforms.empty()) tf_->sendTransform(transforms);
   }

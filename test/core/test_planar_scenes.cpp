@@ -205,5 +205,66 @@ TEST(PosterOccluded, CardSlidingAcrossThePosterDoesNotDragIt) {
   EXPECT_LE(after, 0.5);
 }
 
+// The camera pans away until the poster is entirely out of view, then back
+// (the poster_orbit layout under the wall_pan trajectory, amplitude x3):
+// while out of view the target is predicted by the camera motion (status
+// out_of_view), and it is picked up again once back.
+TEST(PosterOutOfView, PredictedWhileOutAndPickedUpAgain) {
+  auto opt = SceneOptions::fromPreset("poster_orbit");
+  ASSERT_TRUE(opt);
+  opt->trajectory = "pan";
+  opt->trajectory_amplitude = AMPLITUDE;
+  opt->duration = DURATION;
+  opt->brightness_amplitude = 0;
+  std::string err;
+  auto scene = SceneGenerator::create(*opt, &err);
+  ASSERT_TRUE(scene) << err;
+  MotionAnalyzer analyzer{MotionAnalysisOptions()};
+  MotionCache cache(0.0);
+  cache.setImageBudget(size_t(1) << 30);
+  PlanarTargetManager targets{PlanarTargetOptions()};
+  uint32_t id = 0;
+  int out_frames = 0, out_status = 0;
+  bool was_out = false;
+  std::vector<double> back;  // corner error once wholly back in view
+  for (int i = 0; i < scene->frameCount(); ++i) {
+    std::string reset;
+    const cv::Mat frame = scene->renderFrame(i);
+    cache.push(analyzer.process(frame, scene->frameStamp(i)), &reset, frame);
+    const FrameTruth::Target& t = scene->frameTruth(i).targets.at(0);
+    if (i == 0) {
+      ASSERT_TRUE(targets.add(t.id, scene->frameStamp(0), t.corners, t.width_m, t.height_m, scene->intrinsics(),
+                              cache, &id, &err))
+          << err;
+      continue;
+    }
+    const std::vector<PlanarTargetState> states = targets.update(cache);
+    ASSERT_EQ(states.size(), 1u);
+    const PlanarTargetState& s = states[0];
+    double sq = 0;
+    for (int c = 0; c < 4; ++c) sq += std::pow(cv::norm(s.corners[c] - t.corners[c]), 2);
+    const double e = std::sqrt(sq / 4);
+    if (std::getenv("IMT_TEST_TRACE"))  // per-frame trace for tuning
+      std::printf("%d err %.2f visible %.2f st %d cc %.3f pts %d\n", i, e, t.visible_fraction,
+                  static_cast<int>(s.status), s.correlation, s.points);
+    if (t.visible_fraction == 0) {
+      was_out = true;
+      ++out_frames;
+      out_status += s.status == TargetStatus::kOutOfView;
+    } else if (was_out && t.visible_fraction == 1) {
+      back.push_back(e);
+    }
+  }
+  std::printf("poster out of view: %d frames out (out_of_view status on %d); back in view: median %.2f px, "
+              "last %.2f px over %zu frames\n",
+              out_frames, out_status, back.empty() ? NAN : percentile(back, 0.5), back.empty() ? NAN : back.back(),
+              back.size());
+  ASSERT_GT(out_frames, 10) << "the scene should take the poster out of view";
+  EXPECT_EQ(out_status, out_frames);
+  ASSERT_GT(back.size(), 10u) << "and bring it back";
+  EXPECT_LE(percentile(back, 0.5), 1.0);
+  EXPECT_LE(back.back(), 1.0);
+}
+
 }  // namespace
 }  // namespace imt

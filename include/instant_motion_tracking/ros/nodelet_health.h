@@ -79,4 +79,13 @@ class NodeletHealth {
   ros::WallTime last_input_, last_reset_log_;
 };
 
+// On sim time, a frame stamped well after the current ROS time arrived before
+// the clock jumped back (a looping bag) and is processed after it. Its tf
+// must not go out: a tf2 listener clears its buffer at the jump, would keep
+// this transform, and then see it again from the new pass (TF_REPEATED_DATA).
+// `margin_s`: how far ahead of the clock a stamp may be (the clock's own lag).
+inline bool fromBeforeTimeJump(const ros::Time& stamp, double margin_s = 0.5) {
+  return ros::Time::isSimTime() && (stamp - ros::Time::now()).toSec() > margin_s;
+}
+
 }  // namespace imt

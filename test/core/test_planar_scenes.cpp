@@ -205,16 +205,17 @@ TEST(PosterOccluded, CardSlidingAcrossThePosterDoesNotDragIt) {
   EXPECT_LE(after, 0.5);
 }
 
-// The camera pans away until the poster is entirely out of view, then back
-// (the poster_orbit layout under the wall_pan trajectory, amplitude x3):
-// while out of view the target is predicted by the camera motion (status
-// out_of_view), and it is picked up again once back.
+// The camera pans away until the poster is entirely out of view for ~1 s,
+// then partly back (the poster_orbit layout under the wall_pan trajectory,
+// amplitude 2.5; the poster is given at frame 90, wholly in view): while out
+// of view the target is predicted by the camera motion (status out_of_view),
+// and once back (at least 40% in view) it is picked up again.
 TEST(PosterOutOfView, PredictedWhileOutAndPickedUpAgain) {
   auto opt = SceneOptions::fromPreset("poster_orbit");
   ASSERT_TRUE(opt);
   opt->trajectory = "pan";
-  opt->trajectory_amplitude = AMPLITUDE;
-  opt->duration = DURATION;
+  opt->trajectory_amplitude = 2.5;
+  opt->duration = 12.0;
   opt->brightness_amplitude = 0;
   std::string err;
   auto scene = SceneGenerator::create(*opt, &err);
@@ -226,14 +227,18 @@ TEST(PosterOutOfView, PredictedWhileOutAndPickedUpAgain) {
   uint32_t id = 0;
   int out_frames = 0, out_status = 0;
   bool was_out = false;
-  std::vector<double> back;  // corner error once wholly back in view
+  std::vector<double> back;  // corner error once back in view
+  const int kAdd = 90;
   for (int i = 0; i < scene->frameCount(); ++i) {
     std::string reset;
     const cv::Mat frame = scene->renderFrame(i);
     cache.push(analyzer.process(frame, scene->frameStamp(i)), &reset, frame);
-    const FrameTruth::Target& t = scene->frameTruth(i).targets.at(0);
-    if (i == 0) {
-      ASSERT_TRUE(targets.add(t.id, scene->frameStamp(0), t.corners, t.width_m, t.height_m, scene->intrinsics(),
+    if (i < kAdd) continue;
+    const FrameTruth truth = scene->frameTruth(i);
+    const FrameTruth::Target& t = truth.targets.at(0);
+    if (i == kAdd) {
+      ASSERT_EQ(t.visible_fraction, 1.0);
+      ASSERT_TRUE(targets.add(t.id, scene->frameStamp(i), t.corners, t.width_m, t.height_m, scene->intrinsics(),
                               cache, &id, &err))
           << err;
       continue;
@@ -251,7 +256,7 @@ TEST(PosterOutOfView, PredictedWhileOutAndPickedUpAgain) {
       was_out = true;
       ++out_frames;
       out_status += s.status == TargetStatus::kOutOfView;
-    } else if (was_out && t.visible_fraction == 1) {
+    } else if (was_out && t.visible_fraction >= 0.4) {
       back.push_back(e);
     }
   }
@@ -262,6 +267,8 @@ TEST(PosterOutOfView, PredictedWhileOutAndPickedUpAgain) {
   ASSERT_GT(out_frames, 10) << "the scene should take the poster out of view";
   EXPECT_EQ(out_status, out_frames);
   ASSERT_GT(back.size(), 10u) << "and bring it back";
+  // Measured: ~2 px while out (the camera motion's prediction), 0.08 px
+  // median once back; 1 px is the drift-free bar for the last frame.
   EXPECT_LE(percentile(back, 0.5), 1.0);
   EXPECT_LE(back.back(), 1.0);
 }

@@ -11,6 +11,8 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <array>
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 
@@ -20,6 +22,44 @@ namespace {
 double percentile(std::vector<double> v, double p) {
   std::sort(v.begin(), v.end());
   return v[static_cast<size_t>(p * (v.size() - 1))];
+}
+
+// The POT alignment error: RMS of the four corner distances.
+double cornerRms(const std::array<cv::Point2d, 4>& a, const std::array<cv::Point2d, 4>& b) {
+  double sq = 0;
+  for (int c = 0; c < 4; ++c) sq += std::pow(cv::norm(a[c] - b[c]), 2);
+  return std::sqrt(sq / 4);
+}
+
+// Renders `scene` frame by frame through the motion analysis into a cache
+// (frames kept for the appearance alignment), gives its target at frame
+// `add_frame` (the generator's corners and size), and calls
+// visit(frame, truth target, state, corner RMS error) for every later frame.
+template <class Visit>
+void trackRendered(const SceneGenerator& scene, int add_frame, Visit visit) {
+  MotionAnalyzer analyzer{MotionAnalysisOptions()};
+  MotionCache cache(0.0);
+  cache.setImageBudget(size_t(1) << 30);
+  PlanarTargetManager targets{PlanarTargetOptions()};
+  uint32_t id = 0;
+  std::string err;
+  for (int i = 0; i < scene.frameCount(); ++i) {
+    std::string reset;
+    const cv::Mat frame = scene.renderFrame(i);
+    cache.push(analyzer.process(frame, scene.frameStamp(i)), &reset, frame);
+    if (i < add_frame) continue;
+    const FrameTruth truth = scene.frameTruth(i);
+    const FrameTruth::Target& t = truth.targets.at(0);
+    if (i == add_frame) {
+      ASSERT_TRUE(targets.add(t.id, scene.frameStamp(i), t.corners, t.width_m, t.height_m, scene.intrinsics(),
+                              cache, &id, &err))
+          << err;
+      continue;
+    }
+    const std::vector<PlanarTargetState> states = targets.update(cache);
+    ASSERT_EQ(states.size(), 1u);
+    visit(i, t, states[0], cornerRms(states[0].corners, t.corners));
+  }
 }
 
 class PosterOrbit : public ::testing::Test {
@@ -65,9 +105,7 @@ class PosterOrbit : public ::testing::Test {
       PlanarTargetState s;
       EXPECT_TRUE(m.stateAt(id, seq, *cache_, &s, &err)) << err;
       const FrameTruth::Target& t = truth_[seq - cache_->firstSeq()].targets.at(0);
-      double sq = 0;
-      for (int c = 0; c < 4; ++c) sq += std::pow(cv::norm(s.corners[c] - t.corners[c]), 2);
-      e.corners.push_back(std::sqrt(sq / 4));
+      e.corners.push_back(cornerRms(s.corners, t.corners));
       if (std::getenv("IMT_TEST_TRACE"))  // per-frame trace for tuning
         std::printf("%lu err %.2f cc %.3f pts %d st %d conf %.2f\n", (unsigned long)seq,
                     e.corners.back(), s.correlation, s.points, (int)s.status, s.confidence);
@@ -148,36 +186,16 @@ TEST(PosterOccluded, CardSlidingAcrossThePosterDoesNotDragIt) {
   auto scene = SceneGenerator::create(*opt, &err);
   ASSERT_TRUE(scene) << err;
 
-  MotionAnalyzer analyzer{MotionAnalysisOptions()};
-  MotionCache cache(0.0);
-  cache.setImageBudget(size_t(1) << 30);
-  PlanarTargetManager targets{PlanarTargetOptions()};
   std::vector<double> errors;
   std::vector<double> covered;  // occluded fraction of the poster per frame (truth)
-  uint32_t id = 0;
-  for (int i = 0; i < scene->frameCount(); ++i) {
-    std::string reset;
-    const cv::Mat frame = scene->renderFrame(i);
-    cache.push(analyzer.process(frame, scene->frameStamp(i)), &reset, frame);
-    const FrameTruth truth = scene->frameTruth(i);
-    const FrameTruth::Target& t = truth.targets.at(0);
-    if (i == 0) {
-      ASSERT_TRUE(targets.add(t.id, scene->frameStamp(0), t.corners, t.width_m, t.height_m,
-                              scene->intrinsics(), cache, &id, &err))
-          << err;
-      continue;
-    }
-    const std::vector<PlanarTargetState> states = targets.update(cache);
-    ASSERT_EQ(states.size(), 1u);
-    double sq = 0;
-    for (int c = 0; c < 4; ++c) sq += std::pow(cv::norm(states[0].corners[c] - t.corners[c]), 2);
-    errors.push_back(std::sqrt(sq / 4));
+  trackRendered(*scene, 0, [&](int i, const FrameTruth::Target& t, const PlanarTargetState& s, double e) {
+    errors.push_back(e);
     covered.push_back(t.occluded_fraction);
     if (std::getenv("IMT_TEST_TRACE"))  // per-frame trace for tuning
-      std::printf("%d err %.2f covered %.2f cc %.3f visible %.2f pts %d st %d\n", i, errors.back(),
-                  t.occluded_fraction, states[0].correlation, states[0].visible, states[0].points,
-                  static_cast<int>(states[0].status));
-  }
+      std::printf("%d err %.2f covered %.2f cc %.3f visible %.2f pts %d st %d\n", i, e, t.occluded_fraction,
+                  s.correlation, s.visible, s.points, static_cast<int>(s.status));
+  });
+  ASSERT_FALSE(HasFatalFailure());
   // Worst error over frames up to 40% covered, more covered, and after the
   // card has left for good (none of the poster covered from then on).
   double partly = 0, mostly = 0, after = 0, most_covered = 0;
@@ -220,35 +238,11 @@ TEST(PosterOutOfView, PredictedWhileOutAndPickedUpAgain) {
   std::string err;
   auto scene = SceneGenerator::create(*opt, &err);
   ASSERT_TRUE(scene) << err;
-  MotionAnalyzer analyzer{MotionAnalysisOptions()};
-  MotionCache cache(0.0);
-  cache.setImageBudget(size_t(1) << 30);
-  PlanarTargetManager targets{PlanarTargetOptions()};
-  uint32_t id = 0;
   int out_frames = 0, out_status = 0;
   bool was_out = false;
   std::vector<double> back;  // corner error once back in view
-  const int kAdd = 90;
-  for (int i = 0; i < scene->frameCount(); ++i) {
-    std::string reset;
-    const cv::Mat frame = scene->renderFrame(i);
-    cache.push(analyzer.process(frame, scene->frameStamp(i)), &reset, frame);
-    if (i < kAdd) continue;
-    const FrameTruth truth = scene->frameTruth(i);
-    const FrameTruth::Target& t = truth.targets.at(0);
-    if (i == kAdd) {
-      ASSERT_EQ(t.visible_fraction, 1.0);
-      ASSERT_TRUE(targets.add(t.id, scene->frameStamp(i), t.corners, t.width_m, t.height_m, scene->intrinsics(),
-                              cache, &id, &err))
-          << err;
-      continue;
-    }
-    const std::vector<PlanarTargetState> states = targets.update(cache);
-    ASSERT_EQ(states.size(), 1u);
-    const PlanarTargetState& s = states[0];
-    double sq = 0;
-    for (int c = 0; c < 4; ++c) sq += std::pow(cv::norm(s.corners[c] - t.corners[c]), 2);
-    const double e = std::sqrt(sq / 4);
+  ASSERT_EQ(scene->frameTruth(90).targets.at(0).visible_fraction, 1.0);  // given wholly in view
+  trackRendered(*scene, 90, [&](int i, const FrameTruth::Target& t, const PlanarTargetState& s, double e) {
     if (std::getenv("IMT_TEST_TRACE"))  // per-frame trace for tuning
       std::printf("%d err %.2f visible %.2f st %d cc %.3f pts %d\n", i, e, t.visible_fraction,
                   static_cast<int>(s.status), s.correlation, s.points);
@@ -259,7 +253,8 @@ TEST(PosterOutOfView, PredictedWhileOutAndPickedUpAgain) {
     } else if (was_out && t.visible_fraction >= 0.4) {
       back.push_back(e);
     }
-  }
+  });
+  ASSERT_FALSE(HasFatalFailure());
   std::printf("poster out of view: %d frames out (out_of_view status on %d); back in view: median %.2f px, "
               "last %.2f px over %zu frames\n",
               out_frames, out_status, back.empty() ? NAN : percentile(back, 0.5), back.empty() ? NAN : back.back(),

@@ -4,7 +4,10 @@
 // paused player of launch/replay.launch.
 #pragma once
 
+#include "instant_motion_tracking/AddPlanarTarget.h"
+
 #include <nlohmann/json.hpp>
+#include <opencv2/core.hpp>
 #include <ros/ros.h>
 #include <std_srvs/SetBool.h>
 
@@ -71,6 +74,22 @@ inline bool makeSceneBag(const std::string& make_scene_args, SceneBag* scene, st
   std::ifstream(truth) >> scene->truth;
   for (size_t k = 0; k < scene->frames(); ++k) scene->frame_of[scene->stamp(k)] = k;
   return true;
+}
+
+// An add_planar_target request for an axis-aligned rectangle (corners TL,
+// TR, BR, BL) of width_m x height_m metres, given at `stamp`.
+inline instant_motion_tracking::AddPlanarTarget planarTargetRequest(const ros::Time& stamp, const cv::Rect2d& box,
+                                                                    float width_m, float height_m) {
+  instant_motion_tracking::AddPlanarTarget pt;
+  pt.request.stamp = stamp;
+  const cv::Point2d corners[4] = {box.tl(), {box.br().x, box.y}, box.br(), {box.x, box.br().y}};
+  for (int i = 0; i < 4; ++i) {
+    pt.request.corners[i].x = corners[i].x;
+    pt.request.corners[i].y = corners[i].y;
+  }
+  pt.request.width_m = width_m;
+  pt.request.height_m = height_m;
+  return pt;
 }
 
 // Starts rosbag play of /camera/image_raw of `bag`, once something subscribes

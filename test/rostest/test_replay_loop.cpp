@@ -170,16 +170,8 @@ TEST(ReplayLoop, SecondPassTrackedAsWellAsTheFirst) {
     // its corners (used for tf only; its accuracy is tested elsewhere). Given
     // at frame 10, where it is wholly in view.
     const size_t kPatchGiven = 10;
-    const cv::Rect2d p = truth.box(kPatchGiven, kPatch);
-    AddPlanarTarget pt;
-    pt.request.stamp = truth.stamp(kPatchGiven);
-    const double corners[4][2] = {{p.x, p.y}, {p.x + p.width, p.y}, {p.x + p.width, p.y + p.height}, {p.x, p.y + p.height}};
-    for (int i = 0; i < 4; ++i) {
-      pt.request.corners[i].x = corners[i][0];
-      pt.request.corners[i].y = corners[i][1];
-    }
-    pt.request.width_m = 0.5f;
-    pt.request.height_m = 0.4f;
+    AddPlanarTarget pt =
+        imt::test::planarTargetRequest(truth.stamp(kPatchGiven), truth.box(kPatchGiven, kPatch), 0.5f, 0.4f);
     ASSERT_TRUE(ros::service::call("add_planar_target", pt));
     ASSERT_TRUE(pt.response.success) << pt.response.message;
   };

@@ -23,6 +23,7 @@ The anchor is scored where its point is in view and no card is near it.
 Exits 1 with a one-line message naming the problem on failure.
 """
 import argparse
+import bisect
 import json
 import math
 import os
@@ -250,7 +251,7 @@ class Recorder:
         from tf2_msgs.msg import TFMessage
         self.lock = threading.Lock()
         self.out_dir, self.fps = out_dir, fps
-        self.strip_stamps = set()  # set_strip()
+        self.strip_stamps, self.strip_slots = [], set()  # set_strip()
         self.image_arrival = {}  # round(stamp, 6) -> wall time the input image arrived here
         self.data = {"regions": [], "planar_targets": [], "anchors": [], "debug_image": [], "tf": 0}
         self.stamps = {}        # round(stamp, 6) -> rospy.Time, from the outputs
@@ -272,10 +273,13 @@ class Recorder:
         ]
 
     def set_strip(self, stamps):
-        """Keeps the debug images of these stamps (from now on)."""
+        """Keeps, from now on, for each of these stamps the first debug image
+        at or after it (and before the next one): a frame the graph dropped
+        under load leaves no hole in the strip."""
         with self.lock:
-            self.strip_stamps = {round(s, 6) for s in stamps}
-            self.strip = {k: v for k, v in self.strip.items() if k in self.strip_stamps}
+            self.strip_stamps = sorted(round(s, 6) for s in stamps)
+            self.strip = {}
+            self.strip_slots = set()  # indices into strip_stamps already filled
 
     def on_input(self, m):
         now = time.monotonic()
@@ -333,7 +337,9 @@ class Recorder:
                 self.video, self.video_path = open_video(self.out_dir, self.fps, (m.width, m.height))
             if self.video is not None:
                 self.video.write(np.ascontiguousarray(img))
-            if round(stamp, 6) in self.strip_stamps:
+            slot = bisect.bisect_right(self.strip_stamps, round(stamp, 6)) - 1
+            if slot >= 0 and slot not in self.strip_slots:
+                self.strip_slots.add(slot)
                 self.strip[round(stamp, 6)] = img.copy()
 
     def close(self):

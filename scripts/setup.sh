@@ -44,7 +44,9 @@ imt_env() {
 
 imt_build() {
   # targets: "all" (default) or e.g. "all tests"
-  if [ ! -f "$IMT_BUILD_DIR/CMakeCache.txt" ]; then
+  # A configure that failed (e.g. before the packages were installed) leaves a
+  # CMakeCache.txt but no Makefile: configure again then.
+  if [ ! -f "$IMT_BUILD_DIR/Makefile" ]; then
     imt_log "configuring in $IMT_BUILD_DIR"
     cmake -S "$IMT_ROOT" -B "$IMT_BUILD_DIR" -DCMAKE_BUILD_TYPE="$IMT_BUILD_TYPE" \
       -DPYTHON_EXECUTABLE=/usr/bin/python3 >"$IMT_BUILD_DIR.cmake.log" 2>&1 ||

@@ -20,6 +20,9 @@ constexpr float kAccelerationGate = 1.0f;
 constexpr float kPatchErrorGate = 2.0f;
 // LK stops iterating once an update is smaller than this (analysis px).
 constexpr double kLkEpsilon = 0.01;
+// Bounds on the interval ratio that scales the predictions: beyond 8 dropped
+// frames a constant-velocity guess is worth little anyway.
+constexpr double kMinIntervalRatio = 0.1, kMaxIntervalRatio = 8.0;
 // Detection rounds a grid cell is skipped after it yielded no corner.
 constexpr int kEmptyCellBackoff = 3;
 
@@ -50,7 +53,7 @@ int FeatureTracker::gridCell(const cv::Point2f& p) const {
   return cy * options_.grid_cols + cx;
 }
 
-void FeatureTracker::track(const cv::Mat& image) {
+void FeatureTracker::track(const cv::Mat& image, double interval_ratio) {
   CV_Assert(image.type() == CV_8UC1 && !image.empty());
   stats_ = Stats();
   ++frame_;
@@ -66,7 +69,8 @@ void FeatureTracker::track(const cv::Mat& image) {
                                         cv::BORDER_CONSTANT,
                                         /*tryReuseInputImage=*/false);
   if (!prev_pyr_.empty() && !tracks_.empty()) {
-    trackForward();
+    const double r = std::isfinite(interval_ratio) ? interval_ratio : 1.0;
+    trackForward(static_cast<float>(std::clamp(r, kMinIntervalRatio, kMaxIntervalRatio)));
     verifyBackward();
   } else {
     tracks_.clear();
@@ -76,12 +80,13 @@ void FeatureTracker::track(const cv::Mat& image) {
   std::swap(prev_pyr_, cur_pyr_);
 }
 
-void FeatureTracker::trackForward() {
+void FeatureTracker::trackForward(float interval_ratio) {
   const size_t n = tracks_.size();
   pts_prev_.resize(n);
   pts_cur_.resize(n);
   // Initial guess: each track's own last velocity; new tracks take the median
-  // velocity of the others (robust to foreground).
+  // velocity of the others (robust to foreground). Both scaled to this
+  // frame's interval.
   std::vector<float> vx, vy;
   vx.reserve(n);
   vy.reserve(n);
@@ -101,7 +106,7 @@ void FeatureTracker::trackForward() {
   for (size_t i = 0; i < n; ++i) {
     const FeatureTrack& t = tracks_[i];
     pts_prev_[i] = t.cur;
-    const cv::Point2f v = t.age > 0 ? t.cur - t.prev : median_v;
+    const cv::Point2f v = interval_ratio * (t.age > 0 ? t.cur - t.prev : median_v);
     pts_cur_[i] =
         cv::Point2f(std::clamp(t.cur.x + v.x, 0.f, max_x), std::clamp(t.cur.y + v.y, 0.f, max_y));
   }
@@ -172,12 +177,20 @@ void FeatureTracker::verifyBackward() {
   if (m > 0) {
     pts_cur_.resize(m);
     pts_back_.resize(m);
-    for (size_t k = 0; k < m; ++k) pts_cur_[k] = tracks_[check_idx_[k]].cur;
+    // Tracked back from where the forward guess's displacement undone puts
+    // it: near the previous position when the forward match is right, so a
+    // long (fast or dropped-frame) jump is checked as reliably as a short one.
+    for (size_t k = 0; k < m; ++k) {
+      const FeatureTrack& t = tracks_[check_idx_[k]];
+      pts_cur_[k] = t.cur;
+      const cv::Point2f guess_shift = t.prev_index >= 0 ? guesses_[t.prev_index] - t.prev : cv::Point2f();
+      pts_back_[k] = t.cur - guess_shift;
+    }
     const cv::Size win(options_.lk_window, options_.lk_window);
     const cv::TermCriteria crit(cv::TermCriteria::COUNT | cv::TermCriteria::EPS,
                                 options_.lk_iterations, kLkEpsilon);
     cv::calcOpticalFlowPyrLK(cur_pyr_, prev_pyr_, pts_cur_, pts_back_, status_, err_, win, levels_,
-                             crit, 0);
+                             crit, cv::OPTFLOW_USE_INITIAL_FLOW);
     const float max_err2 = static_cast<float>(options_.fb_max_error * options_.fb_max_error);
     drop_.assign(tracks_.size(), 0);
     for (size_t k = 0; k < m; ++k) {

@@ -37,6 +37,7 @@ struct MotionAnalyzer::Impl {
     tracker.reset();
     state.clear();
     has_frame = false;
+    last_interval = 0;
     has_H = false;
   }
 
@@ -45,6 +46,7 @@ struct MotionAnalyzer::Impl {
   CameraMotionEstimator estimator;
   cv::Size size;
   double last_stamp = 0;
+  double last_interval = 0;  // s between the last two frames (0: none yet)
   bool has_frame = false;
   std::string last_reset;
   Eigen::Matrix3d last_H = Eigen::Matrix3d::Identity();
@@ -108,6 +110,13 @@ MotionData MotionAnalyzer::process(const cv::Mat& gray, double stamp) {
     s.last_reset = "stamp did not increase";
     s.resetTracks();
   }
+  // This frame's interval over the last one (> 1 after dropped frames).
+  double interval_ratio = 1.0;
+  if (s.has_frame) {
+    const double interval = stamp - s.last_stamp;
+    if (s.last_interval > 0) interval_ratio = interval / s.last_interval;
+    s.last_interval = interval;
+  }
   s.size = gray.size();
   s.last_stamp = stamp;
   s.has_frame = true;
@@ -145,7 +154,7 @@ MotionData MotionAnalyzer::process(const cv::Mat& gray, double stamp) {
     return cv::Point2f((p.x + 0.5f) * sx, (p.y + 0.5f) * sy);
   };
 
-  s.tracker.track(*analysed);
+  s.tracker.track(*analysed, interval_ratio);
   const std::vector<FeatureTrack>& tracks = s.tracker.tracks();
 
   // --- camera motion from the tracked features, favouring last frame's background ---

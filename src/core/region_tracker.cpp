@@ -110,6 +110,25 @@ cv::Rect2d moveBox(const cv::Rect2d& box, const LocalModel& m) {
 
 Eigen::Vector2d centre(const cv::Rect2d& b) { return {b.x + b.width / 2, b.y + b.height / 2}; }
 
+// A region with at least this much support (inlier count) that loses its
+// features coasts on its own motion instead of following the background.
+constexpr double kMinSupportToCoast = 5;
+// ... when at least this fraction of its box is inside the image.
+constexpr double kMinInsideToCoast = 0.75;
+// Bounds on a step's length in usual intervals (dropped frames upstream).
+constexpr double kMinIntervalRatio = 0.1, kMaxIntervalRatio = 8.0;
+
+// The usual interval between frames after a step of `interval` s that spans
+// `g` of the previous usual interval `usual`: learned from the first step,
+// followed slowly through jitter and rate drift, kept over gaps (dropped
+// frames), and taken at once when frames come faster.
+double nextFrameInterval(double usual, double interval, double g) {
+  if (!(interval > 0)) return usual;
+  if (usual <= 0 || g < 0.67) return interval;
+  if (g > 1.5) return usual;
+  return 0.9 * usual + 0.1 * interval;
+}
+
 double fractionInside(const cv::Rect2d& box, cv::Size size) {
   const cv::Rect2d inter = box & cv::Rect2d(0, 0, size.width, size.height);
   return box.area() > 0 ? inter.area() / box.area() : 0;
@@ -184,11 +203,20 @@ RegionState RegionTracker::step(const RegionState& state, const MotionData& md, 
   const Eigen::Matrix3d H_inv = H_fwd.inverse();
   const Eigen::Matrix3d H_dir = dir == Direction::kForward ? H_fwd : H_inv;
 
+  // Frames dropped upstream: this step spans `g` of the region's usual
+  // intervals, and its velocities (px per usual interval) are scaled by it.
+  const double interval = std::abs(dir == Direction::kForward ? md.stamp - state.stamp : state.stamp - prev_stamp);
+  const double g = state.frame_interval > 0 && interval > 0
+                       ? std::clamp(interval / state.frame_interval, kMinIntervalRatio, kMaxIntervalRatio)
+                       : 1.0;
+  next.frame_interval = nextFrameInterval(state.frame_interval, interval, g);
+  const Eigen::Vector2d object_step = g * state.object_velocity;  // the region's own motion this step
+
   // Search area: the box dilated by the expected motion.
   const double L = std::max(image_size_.width, image_size_.height);
   const double diag = std::hypot(state.box.width, state.box.height);
   const double dil =
-      std::max(o.min_dilation * L, std::min(diag / 4, o.velocity_dilation * state.velocity.norm()));
+      std::max(o.min_dilation * L, std::min(diag / 4, o.velocity_dilation * g * state.velocity.norm()));
   const cv::Rect2d search(state.box.x - dil, state.box.y - dil, state.box.width + 2 * dil,
                           state.box.height + 2 * dil);
   const Eigen::Vector2d c = centre(state.box);
@@ -230,8 +258,8 @@ RegionState RegionTracker::step(const RegionState& state, const MotionData& md, 
     // motion at the point plus the region's own velocity). Stronger while
     // the region coasts through an occlusion.
     if (state.support > 0) {
-      const Eigen::Vector2d expected = v.src_cam + state.object_velocity;
-      const double sigma = std::max(2.0, 0.5 * state.object_velocity.norm());
+      const Eigen::Vector2d expected = v.src_cam + object_step;
+      const double sigma = std::max(2.0, 0.5 * object_step.norm());
       const double m = (v.dst - expected).squaredNorm() / (2 * sigma * sigma);
       const double floor = state.coast_frames > 0 ? 0.05 : 0.3;
       v.prior *= floor + (1 - floor) * std::exp(-m);
@@ -251,12 +279,12 @@ RegionState RegionTracker::step(const RegionState& state, const MotionData& md, 
     next.object_velocity = Eigen::Vector2d::Zero();
     if (status == RegionStatus::kOutOfView) {
       next.object_velocity = 0.9 * state.object_velocity;  // a moving region keeps going, slowing down
-      b.x += next.object_velocity.x();
-      b.y += next.object_velocity.y();
+      b.x += g * next.object_velocity.x();
+      b.y += g * next.object_velocity.y();
     }
     next.box = b;
     next.status = status;
-    next.velocity = centre(b) - c;
+    next.velocity = (centre(b) - c) / g;
     next.confidence = status == RegionStatus::kFeatureless ? 0.5 : 0.3;
     next.inliers.clear();
     next.outliers.clear();
@@ -278,9 +306,37 @@ RegionState RegionTracker::step(const RegionState& state, const MotionData& md, 
     }
   };
 
+  // Coast on the prediction (camera motion + own velocity), keeping the old
+  // support: it may reappear when the occluder has passed.
+  auto coast = [&]() {
+    if (state.coast_frames >= o.max_coast_frames) {
+      next.status = RegionStatus::kLost;
+      next.reason = "occluded for more than " + std::to_string(static_cast<int>(o.max_coast_frames)) +
+                    " frames";
+      next.confidence = 0;
+      return next;
+    }
+    next.box = camera_box;
+    next.box.x += object_step.x();
+    next.box.y += object_step.y();
+    next.velocity = (centre(next.box) - c) / g;
+    next.coast_frames = state.coast_frames + 1;
+    next.confidence = state.confidence * 0.9;
+    next.status = fractionInside(next.box, image_size_) < o.out_of_view_fraction ? RegionStatus::kOutOfView
+                                                                                 : RegionStatus::kTracked;
+    markLostIfFarOut(next);
+    return next;
+  };
+
   if (in_box < o.min_features) {
     const RegionStatus st =
         frac_inside < o.out_of_view_fraction ? RegionStatus::kOutOfView : RegionStatus::kFeatureless;
+    // A region that had support and is still mostly in view lost its
+    // features all at once (covered, blurred, or a jump LK could not follow):
+    // it coasts on its own motion like an occluded one rather than stopping
+    // dead with the background. (Leaving the image takes the features along:
+    // that is no reason to trust its last own motion.)
+    if (frac_inside >= kMinInsideToCoast && state.support >= kMinSupportToCoast) return coast();
     RegionState s = predictWithCamera(st);
     markLostIfFarOut(s);
     return s;
@@ -306,10 +362,12 @@ RegionState RegionTracker::step(const RegionState& state, const MotionData& md, 
     dof = n_in >= o.min_inliers_similarity ? 4 : n_in >= o.min_inliers_scale ? 3 : 2;
   }
   // Degree checks: fall back when scale or rotation leave their bounds.
-  if (model.dof >= 3 && (std::abs(model.scale() - 1) > o.max_scale_change ||
-                         std::abs(model.rotation()) > o.max_rotation)) {
+  // The bounds are per usual frame interval: a step over g intervals may
+  // scale and rotate g times as much.
+  const double max_scale = g * o.max_scale_change, max_rotation = g * o.max_rotation;
+  if (model.dof >= 3 && (std::abs(model.scale() - 1) > max_scale || std::abs(model.rotation()) > max_rotation)) {
     fitModel(vecs, c_cam, model.dof == 4 ? 3 : 2, &model);
-    if (model.dof == 3 && std::abs(model.scale() - 1) > o.max_scale_change) fitModel(vecs, c_cam, 2, &model);
+    if (model.dof == 3 && std::abs(model.scale() - 1) > max_scale) fitModel(vecs, c_cam, 2, &model);
   }
 
   // Inliers and outliers from the final residuals.
@@ -331,36 +389,16 @@ RegionState RegionTracker::step(const RegionState& state, const MotionData& md, 
 
   // Occlusion: the fit rests on features that never supported the region
   // and disagrees with its predicted motion: another object covers it.
-  // Coast on the prediction (camera motion + own velocity).
   const Eigen::Vector2d fitted_shift = model.apply(c_cam) - c;
-  const Eigen::Vector2d predicted_shift = camera_shift + state.object_velocity;
-  const bool conflicting = (fitted_shift - predicted_shift).norm() >
-                           std::max(3.0, 0.5 * state.object_velocity.norm());
+  const Eigen::Vector2d predicted_shift = camera_shift + object_step;
+  const bool conflicting = (fitted_shift - predicted_shift).norm() > std::max(3.0, 0.5 * object_step.norm());
   const double n_fit = static_cast<double>(inliers.size());
   // Support collapsed (most of the region hidden): a fit on the few
   // features left is not trusted either.
-  const bool collapsed = state.support >= 5 && n_fit < std::max<double>(o.min_features, 0.2 * state.support);
-  if (collapsed ||
-      (state.support >= 5 && continued < o.occlusion_ratio * std::max(1.0, n_fit) && conflicting)) {
-    if (state.coast_frames >= o.max_coast_frames) {
-      next.status = RegionStatus::kLost;
-      next.reason = "occluded for more than " + std::to_string(static_cast<int>(o.max_coast_frames)) +
-                    " frames";
-      next.confidence = 0;
-      return next;
-    }
-    next.box = camera_box;
-    next.box.x += state.object_velocity.x();
-    next.box.y += state.object_velocity.y();
-    next.velocity = centre(next.box) - c;
-    next.coast_frames = state.coast_frames + 1;
-    next.confidence = state.confidence * 0.9;
-    next.status = fractionInside(next.box, image_size_) < o.out_of_view_fraction ? RegionStatus::kOutOfView
-                                                                                 : RegionStatus::kTracked;
-    // Keep the old support: it may reappear when the occluder has passed.
-    markLostIfFarOut(next);
-    return next;
-  }
+  const bool supported = state.support >= kMinSupportToCoast;
+  const bool collapsed = supported && n_fit < std::max<double>(o.min_features, 0.2 * state.support);
+  if (collapsed || (supported && continued < o.occlusion_ratio * std::max(1.0, n_fit) && conflicting))
+    return coast();
 
   std::sort(inliers.begin(), inliers.end());
   std::sort(outliers.begin(), outliers.end());
@@ -368,8 +406,8 @@ RegionState RegionTracker::step(const RegionState& state, const MotionData& md, 
   const Eigen::Vector2d shift = centre(next.box) - c;
   const bool first = state.support == 0;
   const double blend = first ? 0.0 : o.velocity_blend;
-  next.velocity = blend * state.velocity + (1 - blend) * shift;
-  next.object_velocity = blend * state.object_velocity + (1 - blend) * (shift - camera_shift);
+  next.velocity = blend * state.velocity + (1 - blend) * shift / g;
+  next.object_velocity = blend * state.object_velocity + (1 - blend) * (shift - camera_shift) / g;
   if (!inliers.empty()) centroid /= static_cast<double>(inliers.size());
   else centroid = centre(next.box);
   next.inlier_centroid = cv::Point2d(centroid.x(), centroid.y());

@@ -72,6 +72,13 @@ struct World {
   // Motion data of frames 0..n-1. A point keeps its ID while it stays
   // visible; it gets a new one when it reappears (as a real tracker would).
   std::vector<MotionData> motionData(int n, uint32_t seed = 1) const {
+    std::vector<int> frames(n);
+    for (int k = 0; k < n; ++k) frames[k] = k;
+    return motionData(frames, seed);
+  }
+  // Motion data of the given frames only (increasing): the others are
+  // dropped, each motion describes the step from the previous frame given.
+  std::vector<MotionData> motionData(const std::vector<int>& frames, uint32_t seed = 1) const {
     std::mt19937 rng(seed);
     std::normal_distribution<double> noise_d(0, noise);
     // Every point: (owner, index); owner -1 = background.
@@ -85,9 +92,11 @@ struct World {
     std::vector<Eigen::Vector2d> last(pts.size());
     uint32_t next_id = 1;
     std::vector<MotionData> out;
-    for (int k = 0; k < n; ++k) {
+    for (size_t i_frame = 0; i_frame < frames.size(); ++i_frame) {
+      const int k = frames[i_frame];
       const Eigen::Matrix3d H = camera(k);
-      const Eigen::Matrix3d H_step = k == 0 ? Eigen::Matrix3d(Eigen::Matrix3d::Identity()) : Eigen::Matrix3d(H * camera(k - 1).inverse());
+      const Eigen::Matrix3d H_step = i_frame == 0 ? Eigen::Matrix3d(Eigen::Matrix3d::Identity())
+                                                  : Eigen::Matrix3d(H * camera(frames[i_frame - 1]).inverse());
       MotionData md;
       md.stamp = 1000.0 + k / 30.0;
       md.width = kImage.width;

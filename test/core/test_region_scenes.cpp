@@ -138,3 +138,85 @@ TEST_F(CardsScene, RegionGivenMidSequenceIsTrackedBothWays) {
 
 }  // namespace
 }  // namespace imt
+
+namespace imt {
+namespace {
+
+// A loaded live graph drops frames (the image queue overflows): the motion
+// analysis then sees steps of several frames. On the live demo's scene
+// (cards, seed 1) regions must be tracked as well as without the gaps.
+// Measured before the interval-aware prediction: card 1 mean IoU 0.09 after
+// 3 frames dropped once (its features all lost, the region left on the wall).
+TEST(CardsSceneDroppedFrames, RegionsAreTrackedAsWellAsWithoutGaps) {
+  auto opt = SceneOptions::fromPreset("cards");
+  ASSERT_TRUE(opt);
+  opt->duration = 4.0;
+  opt->seed = 1;
+  std::string err;
+  auto scene = SceneGenerator::create(*opt, &err);
+  ASSERT_TRUE(scene) << err;
+  const int n = scene->frameCount();
+  std::vector<cv::Mat> images;
+  for (int k = 0; k < n; ++k) images.push_back(scene->renderFrame(k));
+  // Bursts of 2, 3, 5 and 6 dropped frames, and a stretch at half rate.
+  auto dropped = [](int k) {
+    return (k >= 12 && k < 14) || (k >= 28 && k < 31) || (k >= 50 && k < 55) || (k >= 78 && k < 84) ||
+           (k >= 95 && k < 110 && k % 2 == 1);
+  };
+  std::map<uint32_t, double> base, with_gaps;  // mean IoU by card
+  for (bool drop : {false, true}) {
+    MotionAnalyzer analyzer{MotionAnalysisOptions()};
+    RegionManager m(RegionTrackerOptions(), 0.0);
+    std::vector<int> frames;
+    for (int k = 0; k < n; ++k) {
+      if (drop && dropped(k)) continue;
+      frames.push_back(k);
+      m.update(analyzer.process(images[k], scene->frameStamp(k)));
+    }
+    for (uint32_t id : {1u, 2u, 3u}) {
+      // Given where the card is first whole in view (and kept, not dropped).
+      int start = -1;
+      for (int k : frames) {
+        for (const auto& r : scene->frameTruth(k).regions)
+          if (r.id == id && r.visible_fraction > 0.999 && r.occluded_fraction < 0.001) start = k;
+        if (start >= 0) break;
+      }
+      ASSERT_GE(start, 0) << "card " << id;
+      cv::Rect2d box0;
+      for (const auto& r : scene->frameTruth(start).regions)
+        if (r.id == id) box0 = r.box;
+      uint32_t assigned;
+      ASSERT_TRUE(m.add(id, scene->frameStamp(start), box0, &assigned, &err)) << err;
+      double sum = 0;
+      int scored = 0;
+      for (int k : frames) {
+        std::vector<RegionState> s;
+        ASSERT_TRUE(m.seek(scene->frameStamp(k), {id}, &s, &err)) << err;
+        for (const auto& r : scene->frameTruth(k).regions) {
+          if (r.id != id || r.visible_fraction < 0.5 || s.empty()) continue;
+          sum += s[0].status == RegionStatus::kLost ? 0.0 : iouClipped(s[0].box, r.box, cv::Size(640, 480));
+          ++scored;
+        }
+      }
+      const double iou = scored ? sum / scored : 0;
+      std::printf("card %u given at frame %d, %s: mean IoU %.3f over %d frames\n", id, start,
+                  drop ? "frames dropped" : "every frame", iou, scored);
+      (drop ? with_gaps : base)[id] = iou;
+    }
+  }
+  // Measured: cards 1 and 2 within 0.01 of their figures without gaps; card 3,
+  // half out of view at the bottom edge for a second on 6-9 features, drifts
+  // a little more across the gaps (0.841 vs 0.888). Bars: every card above
+  // 0.8 (the failure this guards against left card 1 at 0.09), and the mean
+  // within 0.03 of the mean without gaps (measured 0.019 below).
+  double mean = 0, mean_base = 0;
+  for (const auto& [id, iou] : with_gaps) {
+    EXPECT_GE(iou, 0.8) << "card " << id;
+    mean += iou / with_gaps.size();
+    mean_base += base[id] / with_gaps.size();
+  }
+  EXPECT_GE(mean, mean_base - 0.03);
+}
+
+}  // namespace
+}  // namespace imt

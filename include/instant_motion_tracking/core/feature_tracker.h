@@ -53,8 +53,11 @@ class FeatureTracker {
   explicit FeatureTracker(const MotionAnalysisOptions& options);
 
   // Tracks the features into `image` (CV_8UC1; the same size on every call
-  // until reset()) and refills under-filled grid cells.
-  void track(const cv::Mat& image);
+  // until reset()) and refills under-filled grid cells. `interval_ratio` is
+  // this frame's time since the previous one over the previous frame's: each
+  // track's predicted position (its last motion) is scaled by it, so dropped
+  // frames (ratio 2, 3, ...) do not leave fast features beyond LK's reach.
+  void track(const cv::Mat& image, double interval_ratio = 1.0);
   // Forgets the features and the previous frame; IDs keep counting up.
   void reset();
 
@@ -63,7 +66,7 @@ class FeatureTracker {
   int gridCell(const cv::Point2f& p) const;  // cell index of an analysis-resolution position
 
  private:
-  void trackForward();
+  void trackForward(float interval_ratio);
   void verifyBackward();
   void pruneCrowdedCells();
   void detect(const cv::Mat& image);

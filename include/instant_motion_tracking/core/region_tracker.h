@@ -51,6 +51,7 @@ struct RegionState {
   cv::Point2d inlier_centroid;     // px
   cv::Size2d inlier_extent;        // px; 3.3 standard deviations of the inliers in x and y (0 without inliers)
   int coast_frames = 0;            // consecutive frames predicted without support
+  double frame_interval = 0;       // s; the "frame" of the velocities (the usual interval; 0 until known)
   std::string reason;              // why the region is lost (empty otherwise)
 
   static RegionState start(uint32_t id, const cv::Rect2d& box, double stamp);

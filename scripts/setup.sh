@@ -48,9 +48,10 @@ imt_build() {
   # CMakeCache.txt but no Makefile: configure again then.
   if [ ! -f "$IMT_BUILD_DIR/Makefile" ]; then
     imt_log "configuring in $IMT_BUILD_DIR"
+    mkdir -p "$IMT_BUILD_DIR"
     cmake -S "$IMT_ROOT" -B "$IMT_BUILD_DIR" -DCMAKE_BUILD_TYPE="$IMT_BUILD_TYPE" \
-      -DPYTHON_EXECUTABLE=/usr/bin/python3 >"$IMT_BUILD_DIR.cmake.log" 2>&1 ||
-      { cat "$IMT_BUILD_DIR.cmake.log" >&2; return 1; }
+      -DPYTHON_EXECUTABLE=/usr/bin/python3 >"$IMT_BUILD_DIR/cmake.log" 2>&1 ||
+      { cat "$IMT_BUILD_DIR/cmake.log" >&2; return 1; }
   fi
   imt_log "building: $*"
   # gcc 12 once hit a sporadic internal compiler error on a large ROS .cpp: retry once.

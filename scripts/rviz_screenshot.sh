@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Renders a screenshot of rviz (rviz/instant_motion_tracking.rviz) on the live
 # graph, headless under Xvfb: a generated `cards` bag is replayed
-# (launch/replay.launch, sim time), regions and a planar target are added
+# (launch/replay.launch, sim time), regions, a planar target and an anchor are added
 # through the services, and the screen is saved (default doc/rviz.png).
 # Needs the Debian packages rviz, xvfb, xauth and imagemagick (installed if
 # missing; not needed by the tests or CI).
@@ -58,7 +58,8 @@ done
 sleep 8  # rviz starts (llvmpipe) and subscribes
 rosservice call /player/pause_playback false >/dev/null
 sleep 1.5
-# Cards 2 and 3 as regions, the static patch 4 as a planar target, given at frame 10.
+# Cards 2 and 3 as regions, the static patch 4 as a planar target and a wall
+# point as an anchor, given at frame 10.
 /usr/bin/python3 - "$IMT_SHOT_WORK/truth.json" >"$IMT_SHOT_WORK/calls.txt" <<'PY'
 import json, sys
 f = json.load(open(sys.argv[1]))["frames"][10]
@@ -71,6 +72,11 @@ for rid in (2, 3):
 x, y, w, h = boxes[4]
 corners = ", ".join("{x: %.2f, y: %.2f}" % c for c in [(x, y), (x + w, y), (x + w, y + h), (x, y + h)])
 print("/add_planar_target {%s, id: 1, corners: [%s], width_m: 0.5, height_m: 0.4}" % (stamp, corners))
+# An anchor on the wall: the grid point farthest from every card at frame 10.
+def clearance(u, v):
+    return min(max(bx - u, 0, u - bx - bw, by - v, 0, v - by - bh) for bx, by, bw, bh in boxes.values())
+u, v = max(((u, v) for u in range(80, 561, 20) for v in range(80, 401, 20)), key=lambda p: clearance(*p))
+print("/add_anchor {%s, id: 1, u: %d, v: %d, depth: 2.0}" % (stamp, u, v))
 PY
 while read -r service args; do
   rosservice call "$service" "$args" | tr '\n' ' ' >&2

@@ -3,6 +3,8 @@
 #include "instant_motion_tracking/core/imu_orientation.h"
 #include "instant_motion_tracking/core/scene.h"
 
+#include "shared_data.h"
+
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -13,7 +15,6 @@
 #include <limits>
 #include <random>
 #include <sstream>
-#include <sys/stat.h>
 
 namespace imt {
 namespace {
@@ -433,28 +434,14 @@ TEST(ImuOrientation, RotationHomographyPredictsPixels) {
 
 // --- EuRoC V1_01 (real ADIS16448 gyro, Vicon ground truth) ---
 
-std::string sharedDataDir() {
-  if (const char* env = std::getenv("IMT_SHARED_DATA"); env && *env) return env;
-#ifdef IMT_SHARED_DATA_DIR
-  return std::string(IMT_SHARED_DATA_DIR);
-#else
-  return "/work/shared/data";
-#endif
-}
-
-bool isDir(const std::string& p) {
-  struct stat st;
-  return ::stat(p.c_str(), &st) == 0 && S_ISDIR(st.st_mode);
-}
-
 struct Pose {
   double t;
   Eigen::Quaterniond q;  // R_world_imu (the GT is the IMU/body pose)
 };
 
 TEST(ImuOrientation, EurocGyroMatchesGroundTruthOver5sWindows) {
-  const std::string dir = sharedDataDir() + "/euroc_v1_01_excerpt";
-  if (!isDir(dir)) GTEST_SKIP() << dir << " not found";
+  const std::string dir = test::sharedDataDir() + "/euroc_v1_01_excerpt";
+  if (!test::pathExists(dir)) GTEST_SKIP() << dir << " not found";
   std::ifstream imu_file(dir + "/mav0/imu0/data.csv"), gt_file(dir + "/groundtruth/V101_gt_tum.txt");
   if (!imu_file || !gt_file) GTEST_SKIP() << "EuRoC files missing in " << dir;
 

@@ -9,11 +9,12 @@
 #include "instant_motion_tracking/core/motion_analysis.h"
 #include "instant_motion_tracking/core/planar_target_manager.h"
 
+#include "shared_data.h"
+
 #include <gtest/gtest.h>
 #include <opencv2/calib3d.hpp>
 #include <opencv2/imgcodecs.hpp>
 
-#include <sys/stat.h>
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
@@ -24,15 +25,6 @@
 namespace imt {
 namespace {
 
-std::string dataDir() {
-  if (const char* env = std::getenv("IMT_SHARED_DATA")) return env;
-  return IMT_SHARED_DATA_DIR;
-}
-
-bool exists(const std::string& p) {
-  struct stat st;
-  return stat(p.c_str(), &st) == 0;
-}
 
 std::vector<std::vector<double>> readRows(const std::string& path) {
   std::vector<std::vector<double>> rows;
@@ -77,7 +69,7 @@ struct PotResult {
 };
 
 PotResult runPot(const std::string& seq, int frames, const std::string& model) {
-  const std::string dir = dataDir() + "/pot210_excerpt";
+  const std::string dir = test::sharedDataDir() + "/pot210_excerpt";
   const auto gt = readRows(dir + "/annotation/" + seq + "_gt_points.txt");
   const auto flags = readRows(dir + "/annotation/" + seq + "_flag.txt");
   EXPECT_GE(gt.size(), static_cast<size_t>(frames));
@@ -159,8 +151,8 @@ PotResult runPot(const std::string& seq, int frames, const std::string& model) {
 class Pot210 : public ::testing::TestWithParam<std::pair<const char*, int>> {
  protected:
   void SetUp() override {
-    if (!exists(dataDir() + "/pot210_excerpt/annotation"))
-      GTEST_SKIP() << "POT-210 excerpt not found under " << dataDir();
+    if (!test::pathExists(test::sharedDataDir() + "/pot210_excerpt/annotation"))
+      GTEST_SKIP() << "POT-210 excerpt not found under " << test::sharedDataDir();
   }
 };
 

@@ -204,18 +204,65 @@ TEST(CardsSceneDroppedFrames, RegionsAreTrackedAsWellAsWithoutGaps) {
       (drop ? with_gaps : base)[id] = iou;
     }
   }
-  // Measured: cards 1 and 2 within 0.01 of their figures without gaps; card 3,
-  // half out of view at the bottom edge for a second on 6-9 features, drifts
-  // a little more across the gaps (0.841 vs 0.888). Bars: every card above
-  // 0.8 (the failure this guards against left card 1 at 0.09), and the mean
-  // within 0.03 of the mean without gaps (measured 0.019 below).
+  // Measured: every card within 0.01 of its figure without gaps (0.942,
+  // 0.918, 0.934). Bars: the 0.85 for every card (the failure this
+  // guards against left card 1 at 0.09; card 3, half out of view on 6-9
+  // features, was at 0.841 while a scale needed 8 inliers), and the mean
+  // within 0.02 of the mean without gaps.
   double mean = 0, mean_base = 0;
   for (const auto& [id, iou] : with_gaps) {
-    EXPECT_GE(iou, 0.8) << "card " << id;
+    EXPECT_GE(iou, kMinIou) << "card " << id;
     mean += iou / with_gaps.size();
     mean_base += base[id] / with_gaps.size();
   }
-  EXPECT_GE(mean, mean_base - 0.03);
+  EXPECT_GE(mean, mean_base - 0.02);
+}
+
+// A card seen on few features (card 3 of these seeds runs along the bottom
+// edge, half out of view, on 6-8 inliers while it comes closer): its scale
+// is still estimated (region_tracking.min_inliers_scale 6). Measured over 8
+// seeds of the cards scene: card 3 mean IoU 0.890 -> 0.909 on average when
+// the bar went from 8 inliers to 6, the other cards within 0.002; on these
+// two seeds 0.704 -> 0.884 and 0.687 -> 0.886.
+TEST(CardsSceneFewFeatures, CardAlongTheEdgeKeepsItsScale) {
+  for (uint32_t seed : {6u, 7u}) {
+    auto opt = SceneOptions::fromPreset("cards");
+    ASSERT_TRUE(opt);
+    opt->duration = 6.0;
+    opt->seed = seed;
+    std::string err;
+    auto scene = SceneGenerator::create(*opt, &err);
+    ASSERT_TRUE(scene) << err;
+    MotionAnalyzer analyzer{MotionAnalysisOptions()};
+    RegionManager m(RegionTrackerOptions(), 0.0);
+    int start = -1;
+    cv::Rect2d box0;
+    for (int k = 0; k < scene->frameCount(); ++k) {
+      m.update(analyzer.process(scene->renderFrame(k), scene->frameStamp(k)));
+      for (const auto& r : scene->frameTruth(k).regions)
+        if (start < 0 && r.id == 3 && r.visible_fraction > 0.999 && r.occluded_fraction < 0.001) {
+          start = k;
+          box0 = r.box;
+        }
+    }
+    ASSERT_GE(start, 0);
+    uint32_t assigned;
+    ASSERT_TRUE(m.add(3, scene->frameStamp(start), box0, &assigned, &err)) << err;
+    double sum = 0;
+    int n = 0;
+    for (int k = 0; k < scene->frameCount(); ++k) {
+      std::vector<RegionState> s;
+      ASSERT_TRUE(m.seek(scene->frameStamp(k), {3}, &s, &err)) << err;
+      for (const auto& r : scene->frameTruth(k).regions) {
+        if (r.id != 3 || r.visible_fraction < 0.5 || s.empty()) continue;
+        sum += s[0].status == RegionStatus::kLost ? 0.0 : iouClipped(s[0].box, r.box, cv::Size(640, 480));
+        ++n;
+      }
+    }
+    ASSERT_GT(n, 60);
+    std::printf("seed %u: card 3 mean IoU %.3f over %d frames\n", seed, sum / n, n);
+    EXPECT_GE(sum / n, kMinIou) << "seed " << seed;
+  }
 }
 
 }  // namespace

@@ -15,7 +15,7 @@ struct RegionTrackerOptions {
   double inlier_boost = 10.0;      // prior multiplier for features that were inliers last frame
   double outlier_cut = 0.05;       // prior multiplier for features that were outliers last frame
   int min_features = 3;            // fewer usable features: the region moves with the camera (featureless)
-  int min_inliers_scale = 8;       // inliers needed to estimate a scale change
+  int min_inliers_scale = 6;       // inliers needed to estimate a scale change
   int min_inliers_similarity = 20; // inliers needed to estimate a rotation as well
   double max_scale_change = 0.05;  // |scale - 1| per frame above which scale is not trusted
   double max_rotation = 0.1;       // rad per frame above which rotation is not trusted

@@ -17,6 +17,24 @@ E statusFromName(const std::string& name, F name_of, std::initializer_list<E> va
     if (name == name_of(e)) return e;
   return fallback;
 }
+// The messages of a tracker's states, in order (each through its toMsg).
+template <typename State>
+auto itemsToMsg(const std::vector<State>& states) {
+  std::vector<decltype(toMsg(states.front()))> out;
+  out.reserve(states.size());
+  for (const State& s : states) out.push_back(toMsg(s));
+  return out;
+}
+
+// A tracker's states from the items of an array message, all at its stamp.
+template <typename State, typename Item>
+std::vector<State> statesFromMsg(const std::vector<Item>& items, double stamp) {
+  std::vector<State> out;
+  out.reserve(items.size());
+  for (const Item& m : items) out.push_back(fromMsg(m, stamp));
+  return out;
+}
+
 }  // namespace
 
 instant_motion_tracking::MotionData toMsg(const MotionData& md, const std_msgs::Header& header) {
@@ -198,8 +216,7 @@ instant_motion_tracking::TrackedRegionArray toMsg(const std::vector<RegionState>
                                                   const std_msgs::Header& header) {
   instant_motion_tracking::TrackedRegionArray a;
   a.header = header;
-  a.regions.reserve(states.size());
-  for (const RegionState& s : states) a.regions.push_back(toMsg(s));
+  a.regions = itemsToMsg(states);
   return a;
 }
 
@@ -222,7 +239,7 @@ instant_motion_tracking::PlanarTargetArray toMsg(const std::vector<PlanarTargetS
                                                  const std_msgs::Header& header) {
   instant_motion_tracking::PlanarTargetArray a;
   a.header = header;
-  for (const PlanarTargetState& s : states) a.targets.push_back(toMsg(s));
+  a.targets = itemsToMsg(states);
   return a;
 }
 
@@ -264,7 +281,7 @@ instant_motion_tracking::Anchor toMsg(const AnchorState& s) {
 instant_motion_tracking::AnchorArray toMsg(const std::vector<AnchorState>& states, const std_msgs::Header& header) {
   instant_motion_tracking::AnchorArray a;
   a.header = header;
-  for (const AnchorState& s : states) a.anchors.push_back(toMsg(s));
+  a.anchors = itemsToMsg(states);
   return a;
 }
 
@@ -318,9 +335,7 @@ RegionState fromMsg(const instant_motion_tracking::TrackedRegion& m, double stam
 }
 
 std::vector<RegionState> fromMsg(const instant_motion_tracking::TrackedRegionArray& m) {
-  std::vector<RegionState> out;
-  for (const auto& r : m.regions) out.push_back(fromMsg(r, m.header.stamp.toSec()));
-  return out;
+  return statesFromMsg<RegionState>(m.regions, m.header.stamp.toSec());
 }
 
 PlanarTargetState fromMsg(const instant_motion_tracking::PlanarTarget& m, double stamp) {
@@ -339,9 +354,7 @@ PlanarTargetState fromMsg(const instant_motion_tracking::PlanarTarget& m, double
 }
 
 std::vector<PlanarTargetState> fromMsg(const instant_motion_tracking::PlanarTargetArray& m) {
-  std::vector<PlanarTargetState> out;
-  for (const auto& t : m.targets) out.push_back(fromMsg(t, m.header.stamp.toSec()));
-  return out;
+  return statesFromMsg<PlanarTargetState>(m.targets, m.header.stamp.toSec());
 }
 
 AnchorState fromMsg(const instant_motion_tracking::Anchor& m, double stamp) {
@@ -359,9 +372,7 @@ AnchorState fromMsg(const instant_motion_tracking::Anchor& m, double stamp) {
 }
 
 std::vector<AnchorState> fromMsg(const instant_motion_tracking::AnchorArray& m) {
-  std::vector<AnchorState> out;
-  for (const auto& a : m.anchors) out.push_back(fromMsg(a, m.header.stamp.toSec()));
-  return out;
+  return statesFromMsg<AnchorState>(m.anchors, m.header.stamp.toSec());
 }
 
 }  // namespace imt

@@ -278,7 +278,8 @@ RegionState RegionTracker::step(const RegionState& state, const MotionData& md, 
     cv::Rect2d b = camera_box;
     next.object_velocity = Eigen::Vector2d::Zero();
     if (status == RegionStatus::kOutOfView) {
-      next.object_velocity = 0.9 * state.object_velocity;  // a moving region keeps going, slowing down
+      // A moving region keeps going, slowing down (by 0.9 per usual interval).
+      next.object_velocity = std::pow(0.9, g) * state.object_velocity;
       b.x += g * next.object_velocity.x();
       b.y += g * next.object_velocity.y();
     }

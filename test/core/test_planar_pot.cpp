@@ -9,36 +9,20 @@
 #include "instant_motion_tracking/core/motion_analysis.h"
 #include "instant_motion_tracking/core/planar_target_manager.h"
 
+#include "../pot210.h"
 #include "shared_data.h"
 
 #include <gtest/gtest.h>
 #include <opencv2/calib3d.hpp>
-#include <opencv2/imgcodecs.hpp>
 
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
 #include <ctime>
-#include <fstream>
-#include <sstream>
 
 namespace imt {
 namespace {
 
-
-std::vector<std::vector<double>> readRows(const std::string& path) {
-  std::vector<std::vector<double>> rows;
-  std::ifstream in(path);
-  std::string line;
-  while (std::getline(in, line)) {
-    std::istringstream ss(line);
-    std::vector<double> v;
-    double x;
-    while (ss >> x) v.push_back(x);
-    rows.push_back(v);
-  }
-  return rows;
-}
 
 // Assumed horizontal field of view of the phone videos (POT gives no
 // intrinsics).
@@ -69,12 +53,10 @@ struct PotResult {
 };
 
 PotResult runPot(const std::string& seq, int frames, const std::string& model) {
-  const std::string dir = test::sharedDataDir() + "/pot210_excerpt";
-  const auto gt = readRows(dir + "/annotation/" + seq + "_gt_points.txt");
-  const auto flags = readRows(dir + "/annotation/" + seq + "_flag.txt");
-  EXPECT_GE(gt.size(), static_cast<size_t>(frames));
+  test::PotSequence pot;
   PotResult res;
-  if (gt.size() < static_cast<size_t>(frames)) return res;
+  EXPECT_TRUE(pot.load(test::sharedDataDir() + "/pot210_excerpt", seq, frames)) << seq;
+  if (pot.frames() != frames) return res;
   MotionAnalysisOptions mo;
   MotionAnalyzer analyzer(mo);
   MotionCache cache(0.0);
@@ -82,18 +64,15 @@ PotResult runPot(const std::string& seq, int frames, const std::string& model) {
   PlanarTargetOptions po;
   po.model = model;
   PlanarTargetManager targets(po);
-  std::array<cv::Point2d, 4> c0;
-  for (int i = 0; i < 4; ++i) c0[i] = cv::Point2d(gt[0][2 * i], gt[0][2 * i + 1]);
+  const std::array<cv::Point2d, 4> c0 = pot.corners(1);
   double seconds = 0, tracking_seconds = 0;  // wall time: analysis + tracking; tracking alone
   double cpu_seconds = 0,
          cpu_tracking_seconds = 0;  // the same in CPU time (all threads): stable on a busy machine
   std::vector<double> errors;
   uint32_t id = 0;
   for (int f = 1; f <= frames; ++f) {
-    char name[64];
-    std::snprintf(name, sizeof(name), "/%s/img/%08d.jpg", seq.c_str(), f);
-    const cv::Mat gray = cv::imread(dir + name, cv::IMREAD_GRAYSCALE);
-    EXPECT_FALSE(gray.empty()) << name;
+    const cv::Mat gray = pot.gray(f);
+    EXPECT_FALSE(gray.empty()) << seq << " frame " << f;
     if (gray.empty()) return res;
     const auto t0 = std::chrono::steady_clock::now();
     const std::clock_t cpu0 = std::clock();
@@ -117,13 +96,10 @@ PotResult runPot(const std::string& seq, int frames, const std::string& model) {
     const std::clock_t cpu2 = std::clock();
     cpu_seconds += static_cast<double>(cpu2 - cpu0) / CLOCKS_PER_SEC;
     cpu_tracking_seconds += static_cast<double>(cpu2 - cpu1) / CLOCKS_PER_SEC;
-    const auto& g = gt[f - 1];
-    const bool annotated = g.size() == 8 && (g[0] != 0 || g[1] != 0);
-    if (f == 1 || !annotated || flags[f - 1].empty() || flags[f - 1][0] != 0 || states.empty())
-      continue;
+    if (f == 1 || !pot.scored(f) || states.empty()) continue;
+    const std::array<cv::Point2d, 4> g = pot.corners(f);
     double sq = 0;
-    for (int i = 0; i < 4; ++i)
-      sq += std::pow(cv::norm(states[0].corners[i] - cv::Point2d(g[2 * i], g[2 * i + 1])), 2);
+    for (int i = 0; i < 4; ++i) sq += std::pow(cv::norm(states[0].corners[i] - g[i]), 2);
     errors.push_back(std::sqrt(sq / 4));
     if (std::getenv("IMT_TEST_TRACE"))  // per-frame trace for tuning
       std::printf("%d err %.2f cc %.3f visible %.2f pts %d rms %.2f st %d\n", f, errors.back(),

@@ -17,6 +17,49 @@ namespace {
 
 using test::iouClipped;
 
+const FrameTruth::Region* region(const FrameTruth& f, uint32_t id) {
+  for (const auto& r : f.regions)
+    if (r.id == id) return &r;
+  return nullptr;
+}
+
+// The first frame (index into `truth`) from `from` on where region `id` is
+// wholly in view and unoccluded, -1 when there is none: a box given on a
+// partly visible card would stand for only that part of it, while the truth
+// box grows as the card comes in.
+int firstWholeFrame(const std::vector<FrameTruth>& truth, uint32_t id, int from = 0) {
+  for (int k = from; k < static_cast<int>(truth.size()); ++k) {
+    const FrameTruth::Region* r = region(truth[k], id);
+    if (r && r->visible_fraction > 0.999 && r->occluded_fraction < 0.001) return k;
+  }
+  return -1;
+}
+
+// Mean IoU of region `id` given at its true box in truth[start], tracked
+// forwards and backwards by `m` (which holds the motion data of exactly the
+// frames of `truth`), over every frame where it is at least half visible.
+double meanRegionIou(RegionManager& m, const std::vector<FrameTruth>& truth, cv::Size size, uint32_t id, int start,
+                     int* scored = nullptr) {
+  const FrameTruth::Region* r0 = region(truth[start], id);
+  EXPECT_TRUE(r0);
+  if (!r0) return 0;
+  uint32_t assigned;
+  std::string err;
+  EXPECT_TRUE(m.add(id, truth[start].stamp, r0->box, &assigned, &err)) << err;
+  double sum = 0;
+  int n = 0;
+  for (const FrameTruth& f : truth) {
+    std::vector<RegionState> s;
+    EXPECT_TRUE(m.seek(f.stamp, {id}, &s, &err)) << err;
+    const FrameTruth::Region* r = region(f, id);
+    if (!r || r->visible_fraction < 0.5 || s.empty()) continue;
+    sum += s[0].status == RegionStatus::kLost ? 0.0 : iouClipped(s[0].box, r->box, size);
+    ++n;
+  }
+  if (scored) *scored = n;
+  return n ? sum / n : 0;
+}
+
 // Renders and analyses the scene once for every test of this file.
 class CardsScene : public ::testing::Test {
  protected:
@@ -41,47 +84,17 @@ class CardsScene : public ::testing::Test {
     truth_.clear();
   }
 
-  static const FrameTruth::Region* region(const FrameTruth& f, uint32_t id) {
-    for (const auto& r : f.regions)
-      if (r.id == id) return &r;
-    return nullptr;
-  }
-
-  // The first frame from `from` on where region `id` is wholly in view and
-  // unoccluded: a box given on a partly visible card would stand for only
-  // that part of it, while the truth box grows as the card comes in.
+  // firstWholeFrame, or `from` when there is none.
   static int firstWhole(uint32_t id, int from) {
-    for (int k = from; k < static_cast<int>(truth_.size()); ++k) {
-      const FrameTruth::Region* r = region(truth_[k], id);
-      if (r && r->visible_fraction > 0.999 && r->occluded_fraction < 0.001) return k;
-    }
-    return from;
+    const int k = firstWholeFrame(truth_, id, from);
+    return k >= 0 ? k : from;
   }
 
-  // Mean IoU of region `id` given at frame `start`, over every frame where it
-  // is at least half visible; tracked forwards and backwards from `start`.
+  // meanRegionIou over the whole scene.
   static double meanIou(uint32_t id, int start, int* scored = nullptr) {
     RegionManager m(RegionTrackerOptions(), 0.0);  // keep everything (offline)
     for (const MotionData& md : md_) m.update(md);
-    const FrameTruth::Region* r0 = region(truth_[start], id);
-    EXPECT_TRUE(r0);
-    if (!r0) return 0;
-    uint32_t assigned;
-    std::string err;
-    EXPECT_TRUE(m.add(id, md_[start].stamp, r0->box, &assigned, &err)) << err;
-    double sum = 0;
-    int n = 0;
-    const cv::Size size(md_[0].width, md_[0].height);
-    for (size_t k = 0; k < md_.size(); ++k) {
-      std::vector<RegionState> s;
-      EXPECT_TRUE(m.seek(md_[k].stamp, {id}, &s, &err)) << err;
-      const FrameTruth::Region* r = region(truth_[k], id);
-      if (!r || r->visible_fraction < 0.5 || s.empty()) continue;
-      sum += s[0].status == RegionStatus::kLost ? 0.0 : iouClipped(s[0].box, r->box, size);
-      ++n;
-    }
-    if (scored) *scored = n;
-    return n ? sum / n : 0;
+    return meanRegionIou(m, truth_, cv::Size(md_[0].width, md_[0].height), id, start, scored);
   }
 
   static SceneGenerator* scene_;
@@ -136,11 +149,6 @@ TEST_F(CardsScene, RegionGivenMidSequenceIsTrackedBothWays) {
   }
 }
 
-}  // namespace
-}  // namespace imt
-
-namespace imt {
-namespace {
 
 // A loaded live graph drops frames (the image queue overflows): the motion
 // analysis then sees steps of several frames. On the live demo's scene
@@ -167,39 +175,21 @@ TEST(CardsSceneDroppedFrames, RegionsAreTrackedAsWellAsWithoutGaps) {
   for (bool drop : {false, true}) {
     MotionAnalyzer analyzer{MotionAnalysisOptions()};
     RegionManager m(RegionTrackerOptions(), 0.0);
-    std::vector<int> frames;
+    std::vector<int> frames;  // scene frame numbers analysed
+    std::vector<FrameTruth> truth;
     for (int k = 0; k < n; ++k) {
       if (drop && dropped(k)) continue;
       frames.push_back(k);
-      m.update(analyzer.process(images[k], scene->frameStamp(k)));
+      truth.push_back(scene->frameTruth(k));
+      m.update(analyzer.process(images[k], truth.back().stamp));
     }
     for (uint32_t id : {1u, 2u, 3u}) {
       // Given where the card is first whole in view (and kept, not dropped).
-      int start = -1;
-      for (int k : frames) {
-        for (const auto& r : scene->frameTruth(k).regions)
-          if (r.id == id && r.visible_fraction > 0.999 && r.occluded_fraction < 0.001) start = k;
-        if (start >= 0) break;
-      }
+      const int start = firstWholeFrame(truth, id);
       ASSERT_GE(start, 0) << "card " << id;
-      cv::Rect2d box0;
-      for (const auto& r : scene->frameTruth(start).regions)
-        if (r.id == id) box0 = r.box;
-      uint32_t assigned;
-      ASSERT_TRUE(m.add(id, scene->frameStamp(start), box0, &assigned, &err)) << err;
-      double sum = 0;
       int scored = 0;
-      for (int k : frames) {
-        std::vector<RegionState> s;
-        ASSERT_TRUE(m.seek(scene->frameStamp(k), {id}, &s, &err)) << err;
-        for (const auto& r : scene->frameTruth(k).regions) {
-          if (r.id != id || r.visible_fraction < 0.5 || s.empty()) continue;
-          sum += s[0].status == RegionStatus::kLost ? 0.0 : iouClipped(s[0].box, r.box, cv::Size(640, 480));
-          ++scored;
-        }
-      }
-      const double iou = scored ? sum / scored : 0;
-      std::printf("card %u given at frame %d, %s: mean IoU %.3f over %d frames\n", id, start,
+      const double iou = meanRegionIou(m, truth, images[0].size(), id, start, &scored);
+      std::printf("card %u given at frame %d, %s: mean IoU %.3f over %d frames\n", id, frames[start],
                   drop ? "frames dropped" : "every frame", iou, scored);
       (drop ? with_gaps : base)[id] = iou;
     }
@@ -235,33 +225,21 @@ TEST(CardsSceneFewFeatures, CardAlongTheEdgeKeepsItsScale) {
     ASSERT_TRUE(scene) << err;
     MotionAnalyzer analyzer{MotionAnalysisOptions()};
     RegionManager m(RegionTrackerOptions(), 0.0);
-    int start = -1;
-    cv::Rect2d box0;
+    std::vector<FrameTruth> truth;
+    cv::Size size;
     for (int k = 0; k < scene->frameCount(); ++k) {
-      m.update(analyzer.process(scene->renderFrame(k), scene->frameStamp(k)));
-      for (const auto& r : scene->frameTruth(k).regions)
-        if (start < 0 && r.id == 3 && r.visible_fraction > 0.999 && r.occluded_fraction < 0.001) {
-          start = k;
-          box0 = r.box;
-        }
+      const cv::Mat image = scene->renderFrame(k);
+      size = image.size();
+      truth.push_back(scene->frameTruth(k));
+      m.update(analyzer.process(image, truth.back().stamp));
     }
+    const int start = firstWholeFrame(truth, 3);
     ASSERT_GE(start, 0);
-    uint32_t assigned;
-    ASSERT_TRUE(m.add(3, scene->frameStamp(start), box0, &assigned, &err)) << err;
-    double sum = 0;
     int n = 0;
-    for (int k = 0; k < scene->frameCount(); ++k) {
-      std::vector<RegionState> s;
-      ASSERT_TRUE(m.seek(scene->frameStamp(k), {3}, &s, &err)) << err;
-      for (const auto& r : scene->frameTruth(k).regions) {
-        if (r.id != 3 || r.visible_fraction < 0.5 || s.empty()) continue;
-        sum += s[0].status == RegionStatus::kLost ? 0.0 : iouClipped(s[0].box, r.box, cv::Size(640, 480));
-        ++n;
-      }
-    }
+    const double iou = meanRegionIou(m, truth, size, 3, start, &n);
     ASSERT_GT(n, 60);
-    std::printf("seed %u: card 3 mean IoU %.3f over %d frames\n", seed, sum / n, n);
-    EXPECT_GE(sum / n, kMinIou) << "seed " << seed;
+    std::printf("seed %u: card 3 mean IoU %.3f over %d frames\n", seed, iou, n);
+    EXPECT_GE(iou, kMinIou) << "seed " << seed;
   }
 }
 

@@ -1,4 +1,5 @@
 #include "instant_motion_tracking/core/feature_tracker.h"
+#include "instant_motion_tracking/core/types.h"
 
 #include <opencv2/imgproc.hpp>
 #include <opencv2/video/tracking.hpp>
@@ -20,9 +21,6 @@ constexpr float kAccelerationGate = 1.0f;
 constexpr float kPatchErrorGate = 2.0f;
 // LK stops iterating once an update is smaller than this (analysis px).
 constexpr double kLkEpsilon = 0.01;
-// Bounds on the interval ratio that scales the predictions: beyond 8 dropped
-// frames a constant-velocity guess is worth little anyway.
-constexpr double kMinIntervalRatio = 0.1, kMaxIntervalRatio = 8.0;
 // Detection rounds a grid cell is skipped after it yielded no corner.
 constexpr int kEmptyCellBackoff = 3;
 
@@ -69,8 +67,7 @@ void FeatureTracker::track(const cv::Mat& image, double interval_ratio) {
                                         cv::BORDER_CONSTANT,
                                         /*tryReuseInputImage=*/false);
   if (!prev_pyr_.empty() && !tracks_.empty()) {
-    const double r = std::isfinite(interval_ratio) ? interval_ratio : 1.0;
-    trackForward(static_cast<float>(std::clamp(r, kMinIntervalRatio, kMaxIntervalRatio)));
+    trackForward(static_cast<float>(boundedIntervalRatio(interval_ratio)));
     verifyBackward();
   } else {
     tracks_.clear();

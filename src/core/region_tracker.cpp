@@ -115,8 +115,6 @@ Eigen::Vector2d centre(const cv::Rect2d& b) { return {b.x + b.width / 2, b.y + b
 constexpr double kMinSupportToCoast = 5;
 // ... when at least this fraction of its box is inside the image.
 constexpr double kMinInsideToCoast = 0.75;
-// Bounds on a step's length in usual intervals (dropped frames upstream).
-constexpr double kMinIntervalRatio = 0.1, kMaxIntervalRatio = 8.0;
 
 // The usual interval between frames after a step of `interval` s that spans
 // `g` of the previous usual interval `usual`: learned from the first step,
@@ -206,9 +204,7 @@ RegionState RegionTracker::step(const RegionState& state, const MotionData& md, 
   // Frames dropped upstream: this step spans `g` of the region's usual
   // intervals, and its velocities (px per usual interval) are scaled by it.
   const double interval = std::abs(dir == Direction::kForward ? md.stamp - state.stamp : state.stamp - prev_stamp);
-  const double g = state.frame_interval > 0 && interval > 0
-                       ? std::clamp(interval / state.frame_interval, kMinIntervalRatio, kMaxIntervalRatio)
-                       : 1.0;
+  const double g = boundedIntervalRatio(state.frame_interval > 0 ? interval / state.frame_interval : 1.0);
   next.frame_interval = nextFrameInterval(state.frame_interval, interval, g);
   const Eigen::Vector2d object_step = g * state.object_velocity;  // the region's own motion this step
 

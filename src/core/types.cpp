@@ -32,6 +32,10 @@ void MotionData::sortByX() {
   sorted_by_x = true;
 }
 
+double boundedIntervalRatio(double ratio) {
+  return std::isfinite(ratio) && ratio > 0 ? std::clamp(ratio, 0.1, 8.0) : 1.0;
+}
+
 const char* motionModelName(MotionModel m) {
   switch (m) {
     case MotionModel::kTranslation: return "translation";

@@ -76,4 +76,10 @@ struct MotionData {
   void sortByX();
 };
 
+// A step's length in usual frame intervals (2, 3, ... after frames were
+// dropped upstream), as the trackers scale their constant-velocity
+// predictions by it: bounded to [0.1, 8] (beyond 8 frames such a guess is
+// worth little), 1 when not a positive finite number (unknown).
+double boundedIntervalRatio(double ratio);
+
 }  // namespace imt

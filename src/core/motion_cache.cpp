@@ -23,6 +23,14 @@ void MotionCache::clear() {
   oldest_image_ = 0;
 }
 
+cv::Mat MotionCache::image(uint64_t seq) const {
+  const cv::Mat& kept = images_[seq - first_seq_];
+  if (!kept.empty() || !image_source_) return kept;
+  cv::Mat im = image_source_(frames_[seq - first_seq_].stamp);
+  if (im.type() != CV_8UC1 || im.size() != size_) return cv::Mat();
+  return im;
+}
+
 void MotionCache::setImageBudget(size_t bytes) {
   image_budget_ = bytes;
   trimImages();

@@ -69,6 +69,12 @@ bool PlanarTargetManager::add(uint32_t id, double stamp, const std::array<cv::Po
   return true;
 }
 
+std::vector<uint32_t> PlanarTargetManager::ids() const {
+  std::vector<uint32_t> out;
+  for (const auto& [id, t] : targets_) out.push_back(id);
+  return out;
+}
+
 bool PlanarTargetManager::remove(uint32_t id, std::string* error) {
   if (!targets_.erase(id)) {
     *error = "unknown planar target id " + std::to_string(id);

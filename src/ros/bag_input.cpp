@@ -144,6 +144,7 @@ BagInput::~BagInput() = default;
 bool BagInput::open(const std::string& path, const BagInputOptions& options, std::string* error) {
   path_ = path;
   frame_stamps_.clear();
+  frame_bag_times_.clear();
   const std::string name = "bag '" + path + "'";
   std::error_code ec;
   const auto status = std::filesystem::status(path, ec);
@@ -297,6 +298,7 @@ bool BagInput::open(const std::string& path, const BagInputOptions& options, std
       if (!h) continue;
       if (frame_stamps_.empty()) image_frame_id_ = h->frame_id;
       frame_stamps_.push_back(h->stamp.toSec());
+      frame_bag_times_.push_back(m.getTime());
     }
     stamps_pass_seconds_ =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
@@ -442,6 +444,36 @@ bool BagInput::play(const Callbacks& cb, std::string* error) {
     return false;
   }
   return true;
+}
+
+bool BagInput::readFrame(int index, BagImage* image, std::string* error) {
+  if (!bag_ || index < 0 || index >= static_cast<int>(frame_bag_times_.size())) {
+    *error = "no frame " + std::to_string(index) + " in the bag's window";
+    return false;
+  }
+  const ros::Time t = frame_bag_times_[index];
+  try {
+    // Frames recorded at the same bag time: the one whose header stamp is this frame's.
+    rosbag::View view(*bag_, rosbag::TopicQuery(image_topic_), t, t);
+    for (const rosbag::MessageInstance& m : view) {
+      if (m.getDataType() != image_type_) continue;
+      BagImage im;
+      im.bag_time = m.getTime();
+      im.index = index;
+      if (image_compressed_)
+        im.compressed = m.instantiate<sensor_msgs::CompressedImage>();
+      else
+        im.raw = m.instantiate<sensor_msgs::Image>();
+      if ((!im.raw && !im.compressed) || im.header().stamp.toSec() != frame_stamps_[index]) continue;
+      *image = std::move(im);
+      return true;
+    }
+  } catch (const std::exception& e) {
+    *error = "cannot read frame " + std::to_string(index) + " of bag '" + path_ + "': " + oneLine(e.what());
+    return false;
+  }
+  *error = "frame " + std::to_string(index) + " is no longer in bag '" + path_ + "'";
+  return false;
 }
 
 }  // namespace imt

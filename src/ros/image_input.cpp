@@ -21,28 +21,26 @@ void ImageInput::subscribe(ros::NodeHandle nh, const std::string& topic, const s
         });
     return;
   }
+  // Raw frames are subscribed directly (the topic image_transport's raw
+  // transport would read): no plugin is loaded, so a subscription made while
+  // other nodelets of the manager load their libraries cannot hit
+  // class_loader's race between concurrent library loads (it once killed the
+  // manager with a TransportLoadException for 'raw').
   topic_ = nh.resolveName(topic);
-  if (!it_) it_ = std::make_unique<image_transport::ImageTransport>(nh);
-  // Explicit hints: the default ones would read ~image_transport of the
-  // nodelet manager, not of this nodelet.
-  raw_ = it_->subscribe(
-      topic, queue,
-      [on_frame, on_error](const sensor_msgs::ImageConstPtr& msg) {
-        cv::Mat gray;
-        std::string why;
-        if (imageToGray(*msg, &gray, &why)) {
-          on_frame(msg->header, gray);
-        } else {
-          on_error(why);
-        }
-      },
-      ros::VoidPtr(), image_transport::TransportHints("raw"));
+  raw_ = nh.subscribe<sensor_msgs::Image>(topic_, queue, [on_frame, on_error](const sensor_msgs::ImageConstPtr& msg) {
+    cv::Mat gray;
+    std::string why;
+    if (imageToGray(*msg, &gray, &why)) {
+      on_frame(msg->header, gray);
+    } else {
+      on_error(why);
+    }
+  });
 }
 
 void ImageInput::shutdown() {
   raw_.shutdown();
   compressed_.shutdown();
-  raw_ = image_transport::Subscriber();
   topic_.clear();
 }
 

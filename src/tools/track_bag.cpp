@@ -6,8 +6,7 @@
 //
 // On any bad input it exits non-zero with one line on stderr; warnings and
 // notes of a successful run are printed once each, after the run.
-#include "instant_motion_tracking/core/anchor_manager.h"
-#include "instant_motion_tracking/core/pipeline.h"
+#include "instant_motion_tracking/core/tracking_session.h"
 #include "instant_motion_tracking/io/config.h"
 #include "instant_motion_tracking/io/csv_writer.h"
 #include "instant_motion_tracking/io/init_spec.h"
@@ -15,6 +14,7 @@
 #include "instant_motion_tracking/ros/bag_input.h"
 #include "instant_motion_tracking/ros/conversions.h"
 #include "instant_motion_tracking/ros/image_conversion.h"
+#include "track_bag_util.h"
 
 #include <console_bridge/console.h>
 #include <ros/package.h>
@@ -35,6 +35,10 @@
 #include <vector>
 
 namespace fs = std::filesystem;
+using imt::track_bag::libraryLog;
+using imt::track_bag::Progress;
+using imt::track_bag::StderrCapture;
+using imt::track_bag::Stopwatch;
 
 namespace {
 
@@ -184,129 +188,6 @@ std::string defaultConfigPath() {
 
 std::string fixed(double v, int decimals) { return imt::formatFixed(v, decimals); }
 
-// A one-line progress bar on stderr, when it is a terminal.
-class Progress {
- public:
-  Progress(size_t total, bool enabled) : total_(total), enabled_(enabled) {}
-  void update(size_t done) {
-    if (!enabled_) return;
-    const auto now = Clock::now();
-    if (done < total_ && now - last_ < std::chrono::milliseconds(100)) return;
-    last_ = now;
-    const double elapsed = std::chrono::duration<double>(now - start_).count();
-    const int width = 30;
-    const int filled = total_ ? static_cast<int>(width * done / total_) : width;
-    std::string bar(filled, '#');
-    bar.resize(width, '-');
-    std::fprintf(stderr, "\r[%s] %3d%% %zu/%zu frames %.1f fps", bar.c_str(),
-                 total_ ? static_cast<int>(100 * done / total_) : 100, done, total_,
-                 elapsed > 0 ? done / elapsed : 0.0);
-    std::fflush(stderr);
-    shown_ = true;
-  }
-  // Ends the bar's line (before any other output on stderr).
-  void finish() {
-    if (shown_) std::fputs("\r\033[K", stderr);
-    shown_ = false;
-  }
-
- private:
-  using Clock = std::chrono::steady_clock;
-  size_t total_;
-  bool enabled_;
-  bool shown_ = false;
-  Clock::time_point start_ = Clock::now(), last_ = Clock::time_point();
-};
-
-class Stopwatch {
- public:
-  double lap() {
-    const auto now = std::chrono::steady_clock::now();
-    const double s = std::chrono::duration<double>(now - t_).count();
-    t_ = now;
-    return s;
-  }
-
- private:
-  std::chrono::steady_clock::time_point t_ = std::chrono::steady_clock::now();
-};
-
-// Captures what libraries write to stderr (libpng and libjpeg print their
-// warnings and errors there) around a call, so that this tool keeps its
-// promise of one error line, and reports the text itself. Single-threaded.
-class StderrCapture {
- public:
-  StderrCapture() {
-    file_ = std::tmpfile();
-    saved_ = dup(STDERR_FILENO);
-  }
-  ~StderrCapture() {
-    if (file_) std::fclose(file_);
-    if (saved_ >= 0) ::close(saved_);
-  }
-  void start() {
-    if (!file_ || saved_ < 0) return;
-    std::fflush(stderr);
-    dup2(fileno(file_), STDERR_FILENO);
-  }
-  // Restores stderr; returns what was written meanwhile, on one line.
-  std::string stop() {
-    if (!file_ || saved_ < 0) return "";
-    std::fflush(stderr);
-    dup2(saved_, STDERR_FILENO);
-    const int fd = fileno(file_);
-    std::string text;
-    char buf[512];
-    lseek(fd, 0, SEEK_SET);
-    ssize_t n;
-    while (text.size() < 4096 && (n = ::read(fd, buf, sizeof(buf))) > 0) text.append(buf, n);
-    if (ftruncate(fd, 0) != 0) {
-    }
-    lseek(fd, 0, SEEK_SET);
-    while (!text.empty() && (text.back() == '\n' || text.back() == ' ')) text.pop_back();
-    for (char& c : text)
-      if (c == '\n' || c == '\r') c = ';';
-    return text;
-  }
-
- private:
-  std::FILE* file_ = nullptr;
-  int saved_ = -1;
-};
-
-// Collects what the ROS libraries log through console_bridge (rosbag and
-// roscpp's header parser print errors there before throwing), instead of
-// letting it reach stderr: a failure is then still one line, carrying the
-// library's words; on success they are printed as warnings, once each.
-class LibraryLog : public console_bridge::OutputHandler {
- public:
-  void log(const std::string& text, console_bridge::LogLevel level, const char*, int) override {
-    if (level < console_bridge::CONSOLE_BRIDGE_LOG_WARN) return;
-    std::string line;
-    bool space = false;
-    for (char c : text) {  // one line, runs of whitespace collapsed
-      const bool ws = c == ' ' || c == '\n' || c == '\r' || c == '\t';
-      if (ws) {
-        space = !line.empty();
-      } else {
-        if (space) line += ' ';
-        line += c;
-        space = false;
-      }
-    }
-    if (line.empty() || messages.size() >= 5) return;
-    for (const std::string& m : messages)
-      if (m == line) return;
-    messages.push_back(line);
-  }
-  std::vector<std::string> messages;
-};
-
-LibraryLog& libraryLog() {
-  static LibraryLog log;
-  return log;
-}
-
 // Messages printed once each after a successful run.
 struct Notes {
   std::vector<std::string> lines;
@@ -316,6 +197,7 @@ struct Notes {
 
 // One run of the tool: inputs, outputs, the frame loop and the summary. Every
 // step fails through fail(); the frame callbacks return false with a message.
+// The tracking itself is the session's (core/tracking_session.h), as live.
 class TrackBagRun {
  public:
   explicit TrackBagRun(const Args& args) : args_(args) {}
@@ -335,6 +217,11 @@ class TrackBagRun {
   }
 
  private:
+  struct FrameOut {
+    double stamp;
+    std_msgs::Header header;
+    ros::Time bag_time;
+  };
   struct ResetInfo {
     int count = 0;
     int first_frame = 0;
@@ -342,7 +229,7 @@ class TrackBagRun {
   };
 
   // Configuration, INIT.yaml (cheap to check, so first), the bag with every
-  // frame's stamp, intrinsics and the IMU -> camera rotation.
+  // frame's stamp, then the session with the camera_info and the IMU -> camera rotation.
   void loadInputs() {
     std::string err;
     config_path_ = args_.config.empty() ? defaultConfigPath() : args_.config;
@@ -366,7 +253,11 @@ class TrackBagRun {
                                 &init_, &err))
       fail(err);
 
-    // Intrinsics: the first valid camera_info, else the field-of-view default.
+    // The whole bag stays in the session's motion-data cache: items given at
+    // any frame are then tracked backwards and forwards from it (trackItems()).
+    session_ = std::make_unique<imt::TrackingSession>(config_.pipeline, imt::TrackingSession::Mode::kOffline);
+
+    // The first valid camera_info, else the field-of-view default.
     sensor_msgs::CameraInfo info;
     std::string why;
     const bool have_info = input_.firstCameraInfo(
@@ -374,19 +265,18 @@ class TrackBagRun {
           return imt::fromCameraInfo(m, &k_info_, reason);
         },
         &info, &why);
-    if (!have_info) {
-      k_info_ = imt::CameraIntrinsics();
+    if (have_info)
+      session_->setCameraInfo(k_info_);
+    else
       notes_.note(why + "; intrinsics from default_hfov_deg " + hfov() + " deg");
-    }
 
-    // IMU -> camera rotation from tf (or the anchors.rotation_cam_imu
-    // parameter, which overrides it), kept for the IMU-aided trackers.
+    // IMU -> camera rotation from tf (the anchors.rotation_cam_imu parameter overrides it).
     if (!input_.imuTopic().empty()) {
       imu_frame_ = input_.imuFrameId();
       Eigen::Quaterniond q;
-      if (config_.pipeline.anchors.rotationCamImu(&q) ||
+      if (!session_->rotationFromOptions() &&
           input_.lookupRotation(input_.imageFrameId(), imu_frame_, &q, &tf_why_))
-        q_cam_imu_ = q;
+        session_->setRotationCamImu(q);
     }
     stage_seconds_["open"] = clock.lap();
   }
@@ -417,12 +307,14 @@ class TrackBagRun {
   }
 
   void play() {
-    // The whole bag stays in the motion-data cache: items given at any frame
-    // are then tracked backwards and forwards from it (trackItems()).
-    pipeline_ = std::make_unique<imt::Pipeline>(config_.pipeline, /*keep_all_motion_data=*/true);
-    // Frames for the planar targets' appearance alignment, only when there are
-    // targets (within planar_tracking.image_memory_mb; the oldest go first).
-    pipeline_->setKeepImages(!init_.planar_targets.empty());
+    // Frames for the planar targets' appearance alignment, only when there
+    // are targets: kept within planar_tracking.image_memory_mb, and read
+    // again from the bag for the frames beyond it.
+    if (!init_.planar_targets.empty()) {
+      session_->setKeepImages(true);
+      for (size_t i = 0; i < input_.frameStamps().size(); ++i) frame_index_[input_.frameStamps()[i]] = int(i);
+      session_->setImageSource([this](double stamp) { return rereadFrame(stamp); });
+    }
     progress_ = std::make_unique<Progress>(input_.frameStamps().size(),
                                            !args_.quiet && isatty(STDERR_FILENO));
     imt::BagInput::Callbacks cb;
@@ -434,36 +326,33 @@ class TrackBagRun {
       progress_->finish();
       fail(err);
     }
+    session_->advance(/*all=*/true);
     play_seconds_ = clock.lap();
     progress_->finish();
   }
 
   void onImu(const sensor_msgs::Imu& m) {
-    Stopwatch clock;
     imt::ImuSample s;
     std::string reason;
-    if (imt::fromImuMsg(m, &s, &reason)) {
-      pipeline_->addImu(s);
-      ++imu_used_;
-    } else if (imu_dropped_++ == 0) {
-      imu_first_dropped_ = m.header.stamp.toSec();
+    if (!imt::fromImuMsg(m, &s, &reason)) {
+      if (imu_dropped_++ == 0) imu_first_dropped_ = m.header.stamp.toSec();
+      return;
     }
-    stage_seconds_["imu"] += clock.lap();
+    ++imu_used_;
+    ++imu_outcomes_[session_->addImu(s)];
   }
 
-  bool onImage(const imt::BagImage& im, std::string* why) {
-    Stopwatch clock;
-    const double stamp = im.header().stamp.toSec();
-    const std::string where = "frame " + std::to_string(im.index) + " (stamp " + fixed(stamp, 6) +
+  // The frame as gray, or a message naming it.
+  bool decode(const imt::BagImage& im, cv::Mat* gray, std::string* why) {
+    const std::string where = "frame " + std::to_string(im.index) + " (stamp " + fixed(im.header().stamp.toSec(), 6) +
                               ") on " + input_.imageTopic();
-    cv::Mat gray;
     std::string reason, decoder_said;
     bool ok;
     if (im.raw) {
-      ok = imt::imageToGray(*im.raw, &gray, &reason);
+      ok = imt::imageToGray(*im.raw, gray, &reason);
     } else {
       capture_.start();
-      ok = imt::compressedImageToGray(*im.compressed, &gray, &reason);
+      ok = imt::compressedImageToGray(*im.compressed, gray, &reason);
       decoder_said = capture_.stop();
     }
     if (!ok) {
@@ -472,26 +361,54 @@ class TrackBagRun {
     }
     if (!decoder_said.empty() && decoder_warnings_++ == 0)
       first_decoder_warning_ = where + ": " + decoder_said;
+    return true;
+  }
+
+  // A frame the session's cache did not keep, read again (empty on failure:
+  // the alignment then skips that frame, as it does for a frame without image).
+  cv::Mat rereadFrame(double stamp) {
+    Stopwatch clock;
+    cv::Mat gray;
+    imt::BagImage im;
+    std::string why;
+    const auto it = frame_index_.find(stamp);
+    if (it != frame_index_.end() && input_.readFrame(it->second, &im, &why) && decode(im, &gray, &why)) ++rereads_;
+    stage_seconds_["reread"] += clock.lap();
+    return gray;
+  }
+
+  bool onImage(const imt::BagImage& im, std::string* why) {
+    Stopwatch clock;
+    const double stamp = im.header().stamp.toSec();
+    cv::Mat gray;
+    if (!decode(im, &gray, why)) return false;
     stage_seconds_["decode"] += clock.lap();
 
-    setIntrinsicsFor(gray.size(), im.index);
-    const imt::FrameResult r = pipeline_->processFrame(gray, stamp);
-    if (!pipeline_->lastReset().empty() && im.index > 0) {
-      ResetInfo& ri = resets_[pipeline_->lastReset()];
+    const imt::MotionData& md = session_->analyze(gray, stamp);
+    if (!session_->lastAnalysisReset().empty() && im.index > 0) {
+      ResetInfo& ri = resets_[session_->lastAnalysisReset()];
       if (ri.count++ == 0) {
         ri.first_frame = im.index;
         ri.first_stamp = stamp;
       }
     }
-    clock.lap();  // the pipeline times its own stages
+    if (k_info_.valid && !size_warned_ && std::string(session_->cameraSource()) != "camera_info") {
+      size_warned_ = true;
+      notes_.warn("image size " + std::to_string(gray.cols) + "x" + std::to_string(gray.rows) +
+                  " (first at frame " + std::to_string(im.index) + ") differs from " +
+                  input_.cameraInfoTopic() + "'s " + std::to_string(k_info_.width) + "x" +
+                  std::to_string(k_info_.height) + "; intrinsics from default_hfov_deg " + hfov() +
+                  " deg for it");
+    }
+    clock.lap();  // the session times its own stages
 
-    ++model_counts_[imt::motionModelName(r.motion.camera.model)];
+    ++model_counts_[imt::motionModelName(md.camera.model)];
     frames_out_.push_back({stamp, im.header(), std::max(im.bag_time, ros::TIME_MIN)});
-    if (!camera_csv_.write(imt::cameraMotionRow(r.motion), why)) return false;
+    if (!camera_csv_.write(imt::cameraMotionRow(md), why)) return false;
     if (out_bag_) {
       try {
         const ros::Time when = std::max(im.bag_time, ros::TIME_MIN);
-        out_bag_->write("/motion_data", when, imt::toMsg(r.motion, im.header()));
+        out_bag_->write("/motion_data", when, imt::toMsg(md, im.header()));
       } catch (const std::exception& e) {
         *why = "cannot write --out-bag '" + args_.out_bag + "': " + e.what();
         return false;
@@ -502,142 +419,71 @@ class TrackBagRun {
     return true;
   }
 
-  // camera_info's intrinsics when the frame has its size, else the
-  // field-of-view default for the frame's size (warned once). Set again only
-  // when the frame size changes.
-  void setIntrinsicsFor(const cv::Size& size, int index) {
-    if (size == intrinsics_size_) return;
-    intrinsics_size_ = size;
-    if (k_info_.valid && k_info_.width == size.width && k_info_.height == size.height) {
-      pipeline_->setIntrinsics(k_info_);
-      intrinsics_source_ = "camera_info";
-      return;
-    }
-    if (k_info_.valid && !size_warned_) {
-      size_warned_ = true;
-      notes_.warn("image size " + std::to_string(size.width) + "x" + std::to_string(size.height) +
-                  " (first at frame " + std::to_string(index) + ") differs from " +
-                  input_.cameraInfoTopic() + "'s " + std::to_string(k_info_.width) + "x" +
-                  std::to_string(k_info_.height) + "; intrinsics from default_hfov_deg " + hfov() +
-                  " deg for it");
-    }
-    pipeline_->setIntrinsics(imt::CameraIntrinsics::fromFieldOfView(
-        size.width, size.height, config_.pipeline.default_hfov_deg));
-    intrinsics_source_ = "field_of_view";
-  }
-
-  // The anchors over the pipeline's regions, with the bag's IMU stream
-  // integrated over the whole run (offline: the window spans the bag, up to
-  // an hour), rotated into the camera by /tf_static (or the parameter).
-  std::unique_ptr<imt::AnchorManager> anchorManager() {
-    const auto& samples = pipeline_->imuSamples();
-    imt::ImuOptions o = config_.pipeline.imu;
-    if (!samples.empty())
-      o.window_seconds = std::min(3600.0, std::max(o.window_seconds, samples.back().stamp - samples.front().stamp + 1.0));
-    auto anchors = std::make_unique<imt::AnchorManager>(config_.pipeline.anchors, o, config_.pipeline.default_hfov_deg,
-                                                        &pipeline_->regions());
-    anchors->setIntrinsics(k_info_);
-    if (q_cam_imu_) anchors->setRotationCamImu(*q_cam_imu_);
-    if (samples.size() < 2) return anchors;
-    size_t dropped = 0, restarts = 0, gaps = 0;
-    for (const imt::ImuSample& s : samples) {
-      const imt::ImuInput r = anchors->addImu(s);
-      dropped += r == imt::ImuInput::kDropped;
-      restarts += r == imt::ImuInput::kReset;
-      gaps += r == imt::ImuInput::kGap;
-    }
-    if (gaps)
-      notes_.warn("the IMU stream has " + std::to_string(gaps) + " gap(s) longer than imu.max_gap_seconds " +
-                  "(no anchor orientation inside them; roll and pitch re-levelled after each)");
-    if (dropped) notes_.warn("the IMU orientation dropped " + std::to_string(dropped) + " sample(s) (NaN or out of order)");
-    if (restarts)
-      notes_.warn("the IMU orientation restarted " + std::to_string(restarts) + " time(s) (IMU time jumped back)");
-    return anchors;
-  }
-
-  // Regions and planar targets of INIT.yaml, each given at its frame and
-  // tracked over every frame of the run, backwards and forwards through the
-  // motion-data cache; rows in frame order, then id order.
+  // Regions, planar targets and anchors of INIT.yaml, each given at its frame
+  // and tracked by the session over every frame of the run, backwards and
+  // forwards through its cache; rows in frame order, then id order.
   void trackItems() {
     if (init_.regions.empty() && init_.planar_targets.empty() && init_.anchors.empty()) return;
     Stopwatch clock;
     std::string err;
-    const imt::MotionCache& cache = pipeline_->cache();
-    std::vector<uint32_t> region_ids, target_ids;
+    uint32_t id;
     for (const imt::RegionInit& r : init_.regions) {
-      uint32_t id;
       const cv::Rect2d box(r.box[0], r.box[1], r.box[2], r.box[3]);
-      if (!pipeline_->regions().add(r.id, r.stamp, box, &id, &err))
+      if (!session_->addRegion(r.id, r.stamp, box, &id, &err))
         fail(args_.init + ": regions (id " + std::to_string(r.id) + "): " + err);
-      region_ids.push_back(id);
     }
     for (const imt::PlanarTargetInit& t : init_.planar_targets) {
       std::array<cv::Point2d, 4> corners;
       for (int i = 0; i < 4; ++i) corners[i] = cv::Point2d(t.corners[i][0], t.corners[i][1]);
-      uint32_t id;
-      if (!pipeline_->planarTargets().add(t.id, t.stamp, corners, t.size[0], t.size[1],
-                                          pipeline_->intrinsics(), cache, &id, &err))
+      if (!session_->addPlanarTarget(t.id, t.stamp, corners, t.size[0], t.size[1], &id, &err))
         fail(args_.init + ": planar_targets (id " + std::to_string(t.id) + "): " + err);
-      target_ids.push_back(id);
     }
-    // Anchors: a region around the tapped pixel + the IMU orientation.
-    std::unique_ptr<imt::AnchorManager> anchors;
-    std::vector<uint32_t> anchor_ids;
-    if (!init_.anchors.empty()) anchors = anchorManager();
     for (const imt::AnchorInit& a : init_.anchors) {
-      uint32_t id;
-      if (!anchors->add(a.id, a.stamp, cv::Point2d(a.point[0], a.point[1]), a.depth, &id, &err))
+      if (!session_->addAnchor(a.id, a.stamp, cv::Point2d(a.point[0], a.point[1]), a.depth, &id, &err))
         fail(args_.init + ": anchors (id " + std::to_string(a.id) + "): " + err);
-      anchor_ids.push_back(id);
     }
-    if (anchors && anchors->imu().empty())
+    if (!init_.anchors.empty() && session_->imu().empty())
       notes_.warn("no usable IMU in the bag: anchors are translation-only (status no_imu)");
 
     size_t missing = 0;
     for (const FrameOut& f : frames_out_) {
-      uint64_t seq;
-      if (!cache.find(f.stamp, &seq, &err) || std::abs(cache.at(seq).stamp - f.stamp) > 1e-9) {
+      imt::FrameResult r;
+      if (!session_->statesAt(f.stamp, &r, &err) || std::abs(r.motion.stamp - f.stamp) > 1e-9) {
         ++missing;  // dropped from the cache by a reset (time going backwards)
         continue;
       }
-      std::vector<imt::RegionState> regions;
-      if (!region_ids.empty() && !pipeline_->regions().seek(f.stamp, region_ids, &regions, &err)) fail(err);
-      for (const imt::RegionState& r : regions)
-        if (!regions_csv_.write(imt::regionRow(r), &err)) fail(err);
-      std::vector<imt::PlanarTargetState> targets;
-      for (uint32_t id : target_ids) {
-        imt::PlanarTargetState st;
-        if (!pipeline_->planarTargets().stateAt(id, seq, cache, &st, &err)) fail(err);
-        if (!targets_csv_.write(imt::planarTargetRow(st), &err)) fail(err);
-        targets.push_back(st);
-      }
-      std::vector<imt::AnchorState> anchor_states;
-      if (!anchor_ids.empty() && !anchors->stateAt(f.stamp, anchor_ids, &anchor_states, &err)) fail(err);
-      for (const imt::AnchorState& a : anchor_states)
-        if (!anchors_csv_.write(imt::anchorRow(f.stamp, a.id, a.pixel, a.T_cam_anchor, imt::anchorStatusName(a.status),
-                                               a.hasEstimate()),
-                                &err))
-          fail(err);
-      if (out_bag_) {
-        try {
-          if (!region_ids.empty()) out_bag_->write("/regions", f.bag_time, imt::toMsg(regions, f.header));
-          if (!target_ids.empty()) out_bag_->write("/planar_targets", f.bag_time, imt::toMsg(targets, f.header));
-          if (!anchor_ids.empty()) out_bag_->write("/anchors", f.bag_time, imt::toMsg(anchor_states, f.header));
-          // One /tf message per frame: planar_target_<id> and anchor_<id>.
-          tf2_msgs::TFMessage tf;
-          tf.transforms = imt::planarTargetTransforms(targets, f.header, config_.ros.frame_prefix);
-          for (auto& t : imt::anchorTransforms(anchor_states, f.header, config_.ros.frame_prefix))
-            tf.transforms.push_back(t);
-          if (!tf.transforms.empty()) out_bag_->write("/tf", f.bag_time, tf);
-        } catch (const std::exception& e) {
-          fail("cannot write --out-bag '" + args_.out_bag + "': " + e.what());
-        }
-      }
+      writeRows(f, r);
     }
     if (missing)
       notes_.warn(std::to_string(missing) + " frame(s) before a reset have no region, planar-target or anchor rows "
                   "(the motion analysis restarted there)");
     stage_seconds_["track_items"] = clock.lap();
+  }
+
+  void writeRows(const FrameOut& f, const imt::FrameResult& r) {
+    std::string err;
+    for (const imt::RegionState& s : r.regions)
+      if (!regions_csv_.write(imt::regionRow(s), &err)) fail(err);
+    for (const imt::PlanarTargetState& s : r.targets)
+      if (!targets_csv_.write(imt::planarTargetRow(s), &err)) fail(err);
+    for (const imt::AnchorState& a : r.anchors)
+      if (!anchors_csv_.write(imt::anchorRow(f.stamp, a.id, a.pixel, a.T_cam_anchor, imt::anchorStatusName(a.status),
+                                             a.hasEstimate()),
+                              &err))
+        fail(err);
+    if (!out_bag_) return;
+    try {
+      if (!init_.regions.empty()) out_bag_->write("/regions", f.bag_time, imt::toMsg(r.regions, f.header));
+      if (!init_.planar_targets.empty()) out_bag_->write("/planar_targets", f.bag_time, imt::toMsg(r.targets, f.header));
+      if (!init_.anchors.empty()) out_bag_->write("/anchors", f.bag_time, imt::toMsg(r.anchors, f.header));
+      // One /tf message per frame: planar_target_<id> and anchor_<id>.
+      tf2_msgs::TFMessage tf;
+      tf.transforms = imt::planarTargetTransforms(r.targets, f.header, config_.ros.frame_prefix);
+      for (auto& t : imt::anchorTransforms(r.anchors, f.header, config_.ros.frame_prefix)) tf.transforms.push_back(t);
+      if (!tf.transforms.empty()) out_bag_->write("/tf", f.bag_time, tf);
+    } catch (const std::exception& e) {
+      fail("cannot write --out-bag '" + args_.out_bag + "': " + e.what());
+    }
   }
 
   // Closes the outputs and turns the counts into warnings.
@@ -665,7 +511,14 @@ class TrackBagRun {
     if (imu_dropped_)
       notes_.warn("dropped " + std::to_string(imu_dropped_) + " IMU sample(s) with NaN/Inf values "
                   "(first at stamp " + fixed(imu_first_dropped_, 6) + ")");
-    if (!input_.imuTopic().empty() && !q_cam_imu_)
+    if (const int gaps = imu_outcomes_[imt::ImuInput::kGap])
+      notes_.warn("the IMU stream has " + std::to_string(gaps) + " gap(s) longer than imu.max_gap_seconds " +
+                  "(no anchor orientation inside them; roll and pitch re-levelled after each)");
+    if (const int dropped = imu_outcomes_[imt::ImuInput::kDropped])
+      notes_.warn("the IMU orientation dropped " + std::to_string(dropped) + " sample(s) (NaN or out of order)");
+    if (const int restarts = imu_outcomes_[imt::ImuInput::kReset])
+      notes_.warn("the IMU orientation restarted " + std::to_string(restarts) + " time(s) (IMU time jumped back)");
+    if (!input_.imuTopic().empty() && !session_->rotationCamImu())
       notes_.note("IMU-to-camera rotation unknown: " + tf_why_);
     for (const std::string& m : libraryLog().messages) notes_.warn(m);
   }
@@ -674,10 +527,10 @@ class TrackBagRun {
     imt::RunSummary summary;
     summary.frames = static_cast<int>(frames_);
     std::map<std::string, double> stages = stage_seconds_;
-    for (const auto& [name, s] : pipeline_->times().seconds) stages[name] += s;
+    for (const auto& [name, s] : session_->times().seconds) stages[name] += s;
     double accounted = 0;  // time of the play loop spent outside reading the bag
     for (const auto& [name, s] : stages)
-      if (name != "open") accounted += s;
+      if (name != "open" && name != "track_items" && name != "reread") accounted += s;
     stages["read"] = std::max(0.0, play_seconds_ - accounted);
     summary.stage_seconds = stages;
     summary.seconds = seconds_ = total_clock_.lap();
@@ -696,19 +549,20 @@ class TrackBagRun {
     d["first_stamp"] = input_.frameStamps().front();
     d["last_stamp"] = input_.frameStamps().back();
     d["stamps_pass_seconds"] = input_.stampsPassSeconds();
-    const imt::CameraIntrinsics& k = pipeline_->intrinsics();
-    d["intrinsics"] = {{"source", intrinsics_source_}, {"fx", k.fx}, {"fy", k.fy}, {"cx", k.cx},
+    const imt::CameraIntrinsics k = session_->camera();
+    d["intrinsics"] = {{"source", session_->cameraSource()}, {"fx", k.fx}, {"fy", k.fy}, {"cx", k.cx},
                        {"cy", k.cy}, {"width", k.width}, {"height", k.height}};
     d["imu_samples"] = imu_used_;
     d["imu_dropped"] = imu_dropped_;
     d["image_frame"] = input_.imageFrameId();
     d["imu_frame"] = orNull(imu_frame_);
     d["R_cam_imu"] = nullptr;
-    if (q_cam_imu_) {
-      const Eigen::Matrix3d R = q_cam_imu_->toRotationMatrix();
+    if (const auto q = session_->rotationCamImu()) {
+      const Eigen::Matrix3d R = q->toRotationMatrix();
       d["R_cam_imu"] = {{R(0, 0), R(0, 1), R(0, 2)}, {R(1, 0), R(1, 1), R(1, 2)},
                         {R(2, 0), R(2, 1), R(2, 2)}};
     }
+    d["frames_read_again"] = rereads_;
     d["models"] = model_counts_;
     nlohmann::json resets = nlohmann::json::object();
     for (const auto& [reason, ri] : resets_) resets[reason] = ri.count;
@@ -733,27 +587,22 @@ class TrackBagRun {
   imt::BagInput input_;
   imt::CameraIntrinsics k_info_;  // from camera_info; valid = false without one
   std::string imu_frame_, tf_why_;
-  std::optional<Eigen::Quaterniond> q_cam_imu_;
+  std::map<double, int> frame_index_;  // stamp -> frame index, for rereadFrame()
   // Outputs.
   imt::CsvWriter camera_csv_, regions_csv_, targets_csv_, anchors_csv_;
-  struct FrameOut {
-    double stamp;
-    std_msgs::Header header;
-    ros::Time bag_time;
-  };
   std::vector<FrameOut> frames_out_;  // every processed frame, for trackItems()
   std::unique_ptr<rosbag::Bag> out_bag_;
   // The run.
-  std::unique_ptr<imt::Pipeline> pipeline_;
+  std::unique_ptr<imt::TrackingSession> session_;
   std::unique_ptr<Progress> progress_;
   StderrCapture capture_;
-  cv::Size intrinsics_size_;
-  std::string intrinsics_source_ = "none";
   bool size_warned_ = false;
   size_t frames_ = 0;
+  int rereads_ = 0;
   std::map<std::string, double> stage_seconds_;
   std::map<std::string, int> model_counts_;
   std::map<std::string, ResetInfo> resets_;
+  std::map<imt::ImuInput, int> imu_outcomes_;
   int imu_used_ = 0, imu_dropped_ = 0;
   double imu_first_dropped_ = 0;
   int decoder_warnings_ = 0;

@@ -19,6 +19,7 @@
 #include <opencv2/core.hpp>
 
 #include <deque>
+#include <functional>
 #include <string>
 
 namespace imt {
@@ -39,9 +40,15 @@ class MotionCache {
   uint64_t firstSeq() const { return first_seq_; }
   uint64_t lastSeq() const { return first_seq_ + frames_.size() - 1; }  // only when !empty()
   const MotionData& at(uint64_t seq) const { return frames_[seq - first_seq_]; }
-  // The gray image kept with frame `seq`; empty when none was given or it was
-  // dropped to stay within the budget.
-  const cv::Mat& image(uint64_t seq) const { return images_[seq - first_seq_]; }
+  // The gray image of frame `seq`: the one kept with it, else the image
+  // source's (setImageSource), else empty (none was given, or it was dropped
+  // to stay within the budget).
+  cv::Mat image(uint64_t seq) const;
+  // Where images the cache did not keep are found (offline: read again from
+  // the bag): called with the frame's stamp; returns an empty Mat when it
+  // has none. An image of another size than the frames' is not used.
+  using ImageSource = std::function<cv::Mat(double stamp)>;
+  void setImageSource(ImageSource source) { image_source_ = std::move(source); }
   // Bytes of images kept at most (0, the default: none).
   void setImageBudget(size_t bytes);
   size_t imageBytes() const { return image_bytes_; }
@@ -68,6 +75,7 @@ class MotionCache {
   size_t oldest_image_ = 0;  // index into images_ below which all are empty
   uint64_t first_seq_ = 0;
   cv::Size size_;
+  ImageSource image_source_;
 };
 
 }  // namespace imt

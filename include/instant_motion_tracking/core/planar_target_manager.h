@@ -39,6 +39,7 @@ class PlanarTargetManager {
                std::string* error);
   void clear() { targets_.clear(); }
   size_t size() const { return targets_.size(); }
+  std::vector<uint32_t> ids() const;  // in id order
 
  private:
   struct Target {

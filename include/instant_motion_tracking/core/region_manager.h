@@ -41,6 +41,7 @@ class RegionManager {
   // `image` is kept in the cache within its image budget (see MotionCache).
   std::vector<RegionState> update(const MotionData& md, const cv::Mat& image = cv::Mat());
   void setImageBudget(size_t bytes) { cache_.setImageBudget(bytes); }
+  void setImageSource(MotionCache::ImageSource source) { cache_.setImageSource(std::move(source)); }
 
   // Adds a region whose box is given at `stamp` (nearest cached frame within
   // half a frame interval; 0 = the latest frame). id 0 chooses a free id.

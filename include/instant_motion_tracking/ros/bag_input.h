@@ -124,6 +124,9 @@ class BagInput {
   // order (only topics with a callback are read). False with a message on a
   // read error or when a callback returns false.
   bool play(const Callbacks& callbacks, std::string* error);
+  // Reads frame `index` (of frameStamps()) again, out of order: random access
+  // for the frames a cache did not keep. False with a message when it fails.
+  bool readFrame(int index, BagImage* image, std::string* error);
 
  private:
   std::unique_ptr<rosbag::Bag> bag_;
@@ -132,6 +135,7 @@ class BagInput {
   bool image_compressed_ = false, has_tf_static_ = false, has_tf_ = false;
   ros::Time bag_begin_, bag_end_, window_begin_, window_end_;
   std::vector<double> frame_stamps_;
+  std::vector<ros::Time> frame_bag_times_;  // parallel to frame_stamps_
   std::string image_frame_id_;
   double stamps_pass_seconds_ = 0;
 };

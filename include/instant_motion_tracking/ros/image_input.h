@@ -1,7 +1,8 @@
 // ImageInput: a nodelet's image subscription, handing its callback 8-bit gray
 // frames (ros/image_conversion.h).
 //
-//   transport "raw"         sensor_msgs/Image on `topic`, through image_transport
+//   transport "raw"         sensor_msgs/Image on `topic` (image_transport's raw
+//                           topic, subscribed without loading its plugin)
 //   transport "compressed"  sensor_msgs/CompressedImage on `topic`/compressed
 //                           (the image_transport naming), decoded here: Debian
 //                           ships no compressed_image_transport plugin.
@@ -17,7 +18,7 @@
 // Threading: the callbacks run on the node handle's callback queue.
 #pragma once
 
-#include <image_transport/image_transport.h>
+#include <sensor_msgs/Image.h>
 #include <opencv2/core.hpp>
 #include <ros/ros.h>
 #include <std_msgs/Header.h>
@@ -43,9 +44,7 @@ class ImageInput {
   const std::string& topic() const { return topic_; }
 
  private:
-  std::unique_ptr<image_transport::ImageTransport> it_;
-  image_transport::Subscriber raw_;
-  ros::Subscriber compressed_;
+  ros::Subscriber raw_, compressed_;
   std::string topic_;
 };
 

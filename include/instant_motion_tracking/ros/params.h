@@ -13,8 +13,10 @@
 namespace imt {
 
 // Reads `config` from `nh` (a nodelet's private handle), parameter names and
-// nesting as in config/default.yaml. False with a message naming the
-// parameter when a value fails validation; `config` then keeps its defaults.
+// nesting as in config/default.yaml, through the YAML loader (io/config.h),
+// so it is exactly as strict: an unknown parameter, a wrong type or a value
+// that fails validation gives false with a message naming the parameter, and
+// `config` is unchanged.
 bool loadConfigFromRos(const ros::NodeHandle& nh, Config* config, std::string* error);
 
 }  // namespace imt

@@ -1,0 +1,174 @@
+// TrackingSession: everything that tracks one camera stream, the one object
+// behind both the live nodelets and the offline track_bag (docs/architecture.md).
+//
+// It owns the motion analysis (paper 3.1), the motion-data cache, the camera
+// model of the frames, the IMU orientation (inside the anchors) and the
+// trackers: regions (3.2), planar targets (3.3) and anchors (3.4), all over
+// that one cache. A frame goes in as an image (analyze) or as motion data
+// analysed elsewhere (pushMotion); the trackers run on it once the IMU has
+// passed its stamp (only while anchors wait for it), and its results come
+// out of takeResults(), in frame order.
+//
+// Usage (live):
+//   imt::TrackingSession session(options, imt::TrackingSession::Mode::kLive);
+//   on camera_info:  session.setCameraInfo(model);
+//   on IMU:          session.addImu(sample, &why);
+//   on image:        publish(session.analyze(gray, stamp));      // motion data at once
+//   after either:    for (auto& r : session.takeResults()) publish(r);
+//   on a request:    session.addRegion(0, stamp_in_the_past, box, &id, &error);
+// Offline (track_bag, Mode::kOffline: the cache keeps the whole stream, the
+// IMU window spans up to an hour): analyze() every frame, then add the items
+// at their frames and read every frame's states with statesAt(), which tracks
+// them backwards and forwards through the cache. Images the cache no longer
+// holds come from setImageSource() (the bag, read again).
+// Threading: not thread-safe; callers serialise.
+#pragma once
+
+#include "instant_motion_tracking/core/anchor_manager.h"
+#include "instant_motion_tracking/core/motion_analysis.h"
+#include "instant_motion_tracking/core/motion_cache.h"
+#include "instant_motion_tracking/core/options.h"
+#include "instant_motion_tracking/core/planar_target_manager.h"
+#include "instant_motion_tracking/core/region_manager.h"
+#include "instant_motion_tracking/core/types.h"
+
+#include <array>
+#include <deque>
+#include <map>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace imt {
+
+// What the trackers made of one frame.
+struct FrameResult {
+  MotionData motion;
+  std::vector<RegionState> regions;        // the user's regions (anchors' own excluded)
+  std::vector<PlanarTargetState> targets;  // every planar target
+  std::vector<AnchorState> anchors;        // every anchor
+  // Why the trackers were cleared at this frame (time went back, the image
+  // size changed); "" normally. The items given before are gone.
+  std::string reset;
+  cv::Mat gray;  // the frame (live, when given to analyze()); for overlays
+  CameraIntrinsics camera;  // the camera model of the frame
+};
+
+// Accumulated wall time per stage (s) and the frame count.
+struct StageTimes {
+  std::map<std::string, double> seconds;  // stage name -> total seconds
+  int frames = 0;
+};
+
+class TrackingSession {
+ public:
+  enum class Mode {
+    kLive,    // cache_seconds of motion data; results as frames become ready
+    kOffline  // the whole stream kept: items given at any frame, tracked both ways
+  };
+
+  // `options.validate()` must be empty (the loaders check it).
+  TrackingSession(const PipelineOptions& options, Mode mode);
+  TrackingSession(const TrackingSession&) = delete;
+  TrackingSession& operator=(const TrackingSession&) = delete;
+
+  // --- Inputs ---------------------------------------------------------------
+  // The camera model from camera_info (valid = false: none). It is used for
+  // frames of its size; other frames get a pinhole of default_hfov_deg.
+  void setCameraInfo(const CameraIntrinsics& info);
+  // The model of the current frames, and where it came from
+  // ("camera_info", "field_of_view", or "none" before any frame).
+  CameraIntrinsics camera() const;
+  const char* cameraSource() const;
+  // IMU -> camera rotation (tf); ignored (false) when anchors.rotation_cam_imu
+  // fixes it or q is not a rotation.
+  bool setRotationCamImu(const Eigen::Quaterniond& q_cam_imu);
+  bool rotationFromOptions() const { return anchors_->rotationFromOptions(); }
+  // The IMU -> camera rotation in use (the option's, or tf's once given); none
+  // while unknown (the IMU axes are then taken for the camera's).
+  const std::optional<Eigen::Quaterniond>& rotationCamImu() const { return q_cam_imu_; }
+  // An IMU sample, in stamp order (see AnchorManager::addImu for the outcomes).
+  // Frames waiting for it may become ready: takeResults() afterwards.
+  ImuInput addImu(const ImuSample& s, std::string* why = nullptr);
+  // Forgets the IMU (its subscriber went away).
+  void resetImu() { anchors_->resetImu(); }
+  const ImuOrientation& imu() const { return anchors_->imu(); }
+
+  // Analyses one gray frame (CV_8UC1) and queues it for the trackers; returns
+  // its motion data (to publish at once: it does not wait for the IMU).
+  const MotionData& analyze(const cv::Mat& gray, double stamp);
+  // Why the last analyze() restarted the motion analysis ("" when it did not).
+  const std::string& lastAnalysisReset() const { return analyzer_.lastReset(); }
+  // Queues motion data analysed elsewhere (a tracker nodelet fed by the
+  // motion_data topic); `gray` optional, for the planar alignment.
+  void pushMotion(const MotionData& md, const cv::Mat& gray = cv::Mat());
+  // Runs the trackers on the queued frames that are ready (all of them with
+  // `all`): their IMU has come, or nothing waits for it.
+  void advance(bool all = false);
+  // The results of the frames the trackers ran on since the last call.
+  std::vector<FrameResult> takeResults();
+  size_t waitingFrames() const { return pending_.size(); }
+
+  // Frames are kept in the cache (within planar_tracking.image_memory_mb) for
+  // the planar targets' appearance alignment while `keep` (and refinement is
+  // on). Off by default: a session with planar targets turns it on.
+  void setKeepImages(bool keep);
+  // Where the cache finds the image of a frame it did not keep (offline: the
+  // bag, read again), so the alignment sees every frame it needs.
+  void setImageSource(MotionCache::ImageSource source) { regions_.setImageSource(std::move(source)); }
+
+  // --- Items (stamp 0 = the latest frame; ids 0 = choose one) ---------------
+  bool addRegion(uint32_t id, double stamp, const cv::Rect2d& box, uint32_t* assigned_id,
+                 std::string* error);
+  bool removeRegion(uint32_t id, std::string* error);
+  // The regions' states (ids empty = all) at a cached stamp.
+  bool seekRegions(double stamp, const std::vector<uint32_t>& ids, std::vector<RegionState>* states,
+                   std::string* error);
+  bool addPlanarTarget(uint32_t id, double stamp, const std::array<cv::Point2d, 4>& corners, double width_m,
+                       double height_m, uint32_t* assigned_id, std::string* error);
+  bool removePlanarTarget(uint32_t id, std::string* error);
+  bool addAnchor(uint32_t id, double stamp, const cv::Point2d& uv, double depth, uint32_t* assigned_id,
+                 std::string* error);
+  bool removeAnchor(uint32_t id, std::string* error);
+  size_t regionCount() const;  // the user's regions
+  size_t planarTargetCount() const { return targets_.size(); }
+  size_t anchorCount() const { return anchors_->size(); }
+  // Every item's state at the cached frame nearest `stamp` (offline output).
+  bool statesAt(double stamp, FrameResult* result, std::string* error);
+
+  const MotionCache& cache() const { return regions_.cache(); }
+  const StageTimes& times() const { return times_; }
+  const PipelineOptions& options() const { return options_; }
+  Mode mode() const { return mode_; }
+
+ private:
+  struct Pending {
+    MotionData md;
+    cv::Mat gray;
+  };
+  void track(Pending frame);
+  void dropStaleFrames(double stamp);
+  // The user's regions among `states` (anchors' own regions dropped).
+  static std::vector<RegionState> userRegions(std::vector<RegionState> states);
+  // Makes sure the frame nearest `stamp` has gone through the trackers
+  // (items given at a frame still waiting for the IMU).
+  void flushFor(double stamp);
+  void addTime(const char* stage, double seconds) { times_.seconds[stage] += seconds; }
+
+  PipelineOptions options_;
+  Mode mode_;
+  MotionAnalyzer analyzer_;
+  RegionManager regions_;
+  PlanarTargetManager targets_;
+  std::unique_ptr<AnchorManager> anchors_;  // after regions_, which it refers to
+  CameraIntrinsics info_;
+  std::optional<Eigen::Quaterniond> q_cam_imu_;
+  std::deque<Pending> pending_;
+  std::vector<FrameResult> results_;
+  MotionData last_motion_;
+  StageTimes times_;
+  bool keep_images_ = false;
+};
+
+}  // namespace imt

@@ -1,0 +1,219 @@
+#include "instant_motion_tracking/core/tracking_session.h"
+
+#include <algorithm>
+#include <chrono>
+
+namespace imt {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double secondsSince(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
+
+// Offline the IMU orientation spans the stream (up to the option's bound).
+ImuOptions imuOptionsFor(ImuOptions o, TrackingSession::Mode mode) {
+  if (mode == TrackingSession::Mode::kOffline) o.window_seconds = 3600.0;
+  return o;
+}
+
+}  // namespace
+
+TrackingSession::TrackingSession(const PipelineOptions& options, Mode mode)
+    : options_(options),
+      mode_(mode),
+      analyzer_(options.motion_analysis),
+      regions_(options.region_tracking, mode == Mode::kOffline ? 0.0 : options.cache_seconds),
+      targets_(options.planar_tracking),
+      anchors_(std::make_unique<AnchorManager>(options.anchors, imuOptionsFor(options.imu, mode),
+                                               options.default_hfov_deg, &regions_)) {
+  Eigen::Quaterniond q;
+  if (options.anchors.rotationCamImu(&q) && anchors_->rotationFromOptions()) q_cam_imu_ = q;
+}
+
+void TrackingSession::setCameraInfo(const CameraIntrinsics& info) {
+  info_ = info;
+  anchors_->setIntrinsics(info);
+}
+
+CameraIntrinsics TrackingSession::camera() const {
+  const cv::Size size = regions_.cache().imageSize();
+  if (info_.valid && info_.width == size.width && info_.height == size.height) return info_;
+  return CameraIntrinsics::fromFieldOfView(size.width, size.height, options_.default_hfov_deg);
+}
+
+const char* TrackingSession::cameraSource() const {
+  const cv::Size size = regions_.cache().imageSize();
+  if (size.width <= 0) return "none";
+  return info_.valid && info_.width == size.width && info_.height == size.height ? "camera_info" : "field_of_view";
+}
+
+bool TrackingSession::setRotationCamImu(const Eigen::Quaterniond& q_cam_imu) {
+  if (!anchors_->setRotationCamImu(q_cam_imu)) return false;
+  q_cam_imu_ = q_cam_imu.normalized();
+  return true;
+}
+
+ImuInput TrackingSession::addImu(const ImuSample& s, std::string* why) {
+  const auto t0 = Clock::now();
+  const ImuInput r = anchors_->addImu(s, why);
+  addTime("imu", secondsSince(t0));
+  advance(false);
+  return r;
+}
+
+void TrackingSession::setKeepImages(bool keep) {
+  const PlanarTargetOptions& p = options_.planar_tracking;
+  keep_images_ = keep && p.refine && p.model == "perspective" && p.image_memory_mb > 0;
+  regions_.setImageBudget(keep_images_ ? static_cast<size_t>(p.image_memory_mb * 1024 * 1024) : 0);
+}
+
+const MotionData& TrackingSession::analyze(const cv::Mat& gray, double stamp) {
+  const auto t0 = Clock::now();
+  last_motion_ = analyzer_.process(gray, stamp);
+  addTime("motion_analysis", secondsSince(t0));
+  ++times_.frames;
+  dropStaleFrames(stamp);
+  // The image goes along for the alignment (kept within its budget) and, live,
+  // for the overlays of the frame's results.
+  pending_.push_back({last_motion_, keep_images_ || mode_ == Mode::kLive ? gray : cv::Mat()});
+  advance(false);
+  return last_motion_;
+}
+
+void TrackingSession::dropStaleFrames(double stamp) {
+  // Time went back (a looping bag): the old stream's frames still waiting
+  // for the IMU are dropped, not tracked late into the new one.
+  if (!pending_.empty() && !(stamp > pending_.back().md.stamp)) pending_.clear();
+}
+
+void TrackingSession::pushMotion(const MotionData& md, const cv::Mat& gray) {
+  dropStaleFrames(md.stamp);
+  pending_.push_back({md, gray});
+  advance(false);
+}
+
+void TrackingSession::advance(bool all) {
+  while (!pending_.empty() &&
+         (all || anchors_->ready(pending_.front().md.stamp, pending_.back().md.stamp))) {
+    Pending frame = std::move(pending_.front());
+    pending_.pop_front();
+    track(std::move(frame));
+  }
+}
+
+void TrackingSession::track(Pending frame) {
+  const auto t0 = Clock::now();
+  FrameResult r;
+  r.regions = userRegions(regions_.update(frame.md, keep_images_ ? frame.gray.clone() : cv::Mat()));
+  r.reset = regions_.lastReset();
+  anchors_->update();
+  const auto t1 = Clock::now();
+  addTime("region_tracking", std::chrono::duration<double>(t1 - t0).count());
+  r.targets = targets_.update(regions_.cache());
+  const auto t2 = Clock::now();
+  addTime("planar_tracking", std::chrono::duration<double>(t2 - t1).count());
+  if (anchors_->size() > 0) {
+    std::string error;  // the frame was just cached: its stamp is always found
+    anchors_->stateAt(frame.md.stamp, {}, &r.anchors, &error);
+  }
+  addTime("anchors", secondsSince(t2));
+  if (mode_ == Mode::kLive) {
+    r.motion = std::move(frame.md);
+    r.gray = frame.gray;
+    r.camera = camera();
+    results_.push_back(std::move(r));
+  }
+}
+
+std::vector<FrameResult> TrackingSession::takeResults() {
+  std::vector<FrameResult> out;
+  out.swap(results_);
+  return out;
+}
+
+std::vector<RegionState> TrackingSession::userRegions(std::vector<RegionState> states) {
+  states.erase(std::remove_if(states.begin(), states.end(),
+                              [](const RegionState& s) { return s.id >= AnchorManager::kAnchorRegionBase; }),
+               states.end());
+  return states;
+}
+
+void TrackingSession::flushFor(double stamp) {
+  if (pending_.empty()) return;
+  if (stamp == 0 || stamp > regions_.newestStamp()) advance(true);
+}
+
+bool TrackingSession::addRegion(uint32_t id, double stamp, const cv::Rect2d& box, uint32_t* assigned_id,
+                                std::string* error) {
+  if (id >= AnchorManager::kAnchorRegionBase) {
+    *error = "region id " + std::to_string(id) + " is reserved (ids must be below " +
+             std::to_string(AnchorManager::kAnchorRegionBase) + ")";
+    return false;
+  }
+  flushFor(stamp);
+  return regions_.add(id, stamp, box, assigned_id, error);
+}
+
+bool TrackingSession::removeRegion(uint32_t id, std::string* error) {
+  if (id >= AnchorManager::kAnchorRegionBase) {
+    *error = "unknown region id " + std::to_string(id);
+    return false;
+  }
+  return regions_.remove(id, error);
+}
+
+bool TrackingSession::seekRegions(double stamp, const std::vector<uint32_t>& ids,
+                                  std::vector<RegionState>* states, std::string* error) {
+  for (uint32_t id : ids) {
+    if (id >= AnchorManager::kAnchorRegionBase) {
+      *error = "unknown region id " + std::to_string(id);
+      return false;
+    }
+  }
+  std::vector<RegionState> all;
+  if (!regions_.seek(stamp, ids, &all, error)) return false;
+  *states = ids.empty() ? userRegions(std::move(all)) : std::move(all);
+  return true;
+}
+
+size_t TrackingSession::regionCount() const {
+  // The anchors' own regions are counted by the region manager too.
+  return regions_.regionCount() - anchors_->size();
+}
+
+bool TrackingSession::addPlanarTarget(uint32_t id, double stamp, const std::array<cv::Point2d, 4>& corners,
+                                      double width_m, double height_m, uint32_t* assigned_id, std::string* error) {
+  flushFor(stamp);
+  return targets_.add(id, stamp, corners, width_m, height_m, camera(), regions_.cache(), assigned_id, error);
+}
+
+bool TrackingSession::removePlanarTarget(uint32_t id, std::string* error) { return targets_.remove(id, error); }
+
+bool TrackingSession::addAnchor(uint32_t id, double stamp, const cv::Point2d& uv, double depth,
+                                uint32_t* assigned_id, std::string* error) {
+  flushFor(stamp);
+  return anchors_->add(id, stamp, uv, depth, assigned_id, error);
+}
+
+bool TrackingSession::removeAnchor(uint32_t id, std::string* error) { return anchors_->remove(id, error); }
+
+bool TrackingSession::statesAt(double stamp, FrameResult* result, std::string* error) {
+  const MotionCache& cache = regions_.cache();
+  uint64_t seq;
+  if (!cache.find(stamp, &seq, error)) return false;
+  FrameResult r;
+  r.motion = cache.at(seq);
+  r.camera = camera();
+  if (regionCount() > 0 && !seekRegions(r.motion.stamp, {}, &r.regions, error)) return false;
+  std::vector<uint32_t> ids = targets_.ids();
+  for (uint32_t id : ids) {
+    PlanarTargetState st;
+    if (!targets_.stateAt(id, seq, cache, &st, error)) return false;
+    r.targets.push_back(st);
+  }
+  if (anchors_->size() > 0 && !anchors_->stateAt(r.motion.stamp, {}, &r.anchors, error)) return false;
+  *result = std::move(r);
+  return true;
+}
+
+}  // namespace imt

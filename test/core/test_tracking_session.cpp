@@ -70,12 +70,10 @@ double difference(const FrameResult& a, const FrameResult& b) {
     if (a.regions[i].status != b.regions[i].status) return INFINITY;
     for (double v : {p.x - q.x, p.y - q.y, p.width - q.width, p.height - q.height}) worse(v);
   }
-  if (std::getenv("DBG") && d > 0) std::printf("regions %g\n", d);
   for (size_t i = 0; i < a.targets.size(); ++i) {
     if (a.targets[i].status != b.targets[i].status) return INFINITY;
     for (int k = 0; k < 4; ++k) worse(cv::norm(a.targets[i].corners[k] - b.targets[i].corners[k]));
   }
-  if (std::getenv("DBG") && d > 0) std::printf("+targets %g\n", d);
   for (size_t i = 0; i < a.anchors.size(); ++i) {
     if (a.anchors[i].status != b.anchors[i].status) return INFINITY;
     worse(cv::norm(a.anchors[i].pixel - b.anchors[i].pixel));
@@ -150,10 +148,7 @@ std::map<int, FrameResult> runOffline(const Rendered& r, const Items& items, Pip
   EXPECT_TRUE(s.takeResults().empty());  // offline, results are read with statesAt()
   addItems(s, r, items);
   std::map<int, FrameResult> out;
-  const bool fwd_first = std::getenv("FWD_FIRST") != nullptr;
-  for (int k = 0; k < static_cast<int>(r.frames.size()); ++k) {
-    const int n = r.frames.size();
-    const int i = fwd_first ? (k + items.given) % n : k;
+  for (int i = 0; i < static_cast<int>(r.frames.size()); ++i) {
     std::string err;
     EXPECT_TRUE(s.statesAt(r.scene->frameStamp(i), &out[i], &err)) << err;
   }
@@ -271,14 +266,30 @@ TEST(TrackingSession, LiveAndOfflineAgreeOnCards) {
   a.T_cam_anchor = Eigen::Isometry3d::Identity();
   a.T_cam_anchor.translation() = Eigen::Vector3d(0, 0, 1);
   items.anchor = a;
-  const PipelineOptions po;
-  const auto live = runLive(r, items, po);
-  int reread = 0;
-  const auto offline = runOffline(r, items, po, 512, &reread);
-  int at = -1;
-  const double d = worstDifference(live, offline, &at);
-  std::printf("cards: live vs offline worst %.3g px (frame %d)\n", d, at);
+  // With a fixed gyro bias the anchors agree exactly too.
+  PipelineOptions po;
+  po.imu.estimate_gyro_bias = false;
+  int reread = 0, at = -1;
+  double d = worstDifference(runLive(r, items, po), runOffline(r, items, po, 512, &reread), &at);
+  std::printf("cards, fixed gyro bias: live vs offline worst %.3g px (frame %d)\n", d, at);
   EXPECT_LT(d, 1e-9) << "frame " << at;  // as above: the same arithmetic
+  // With the bias estimated (the default), the IMU orientation integrates a
+  // still stretch again once it is confirmed (ImuOrientation::reintegrateFrom):
+  // a live frame answered before the confirmation keeps the orientation it
+  // had, offline sees the corrected one. Regions and planar targets do not
+  // use it and stay exact; anchors move by a hair: measured 0.0043 px; 0.02
+  // px bounds that and fails on any real divergence (a pixel or more).
+  po = PipelineOptions();
+  auto live = runLive(r, items, po);
+  const auto offline = runOffline(r, items, po, 512, &reread);
+  d = worstDifference(live, offline, &at);
+  std::printf("cards, estimated gyro bias: live vs offline worst %.3g px (frame %d)\n", d, at);
+  EXPECT_LT(d, 0.02) << "frame " << at;
+  for (auto& [i, fr] : live) fr.anchors.clear();
+  std::map<int, FrameResult> offline_no_anchors = offline;
+  for (auto& [i, fr] : offline_no_anchors) fr.anchors.clear();
+  d = worstDifference(live, offline_no_anchors, &at);
+  EXPECT_LT(d, 1e-9) << "regions and planar targets, frame " << at;
 }
 
 TEST(TrackingSession, ItemsAreRefusedWithAMessage) {

@@ -154,7 +154,7 @@ std::map<std::string, Row> liveRows(const std::vector<Array>& msgs, size_t from,
 }
 
 void expectAgreement(const char* what, const std::map<std::string, Row>& live,
-                     const std::map<std::string, Row>& offline, size_t min_rows) {
+                     const std::map<std::string, Row>& offline, size_t min_rows, double tolerance = 1e-3) {
   const Agreement a = compare(live, offline);
   std::printf("live vs track_bag, %s: %zu frames, worst difference %.2g at %s\n", what, live.size(), a.worst,
               a.worst_at.c_str());
@@ -169,7 +169,7 @@ void expectAgreement(const char* what, const std::map<std::string, Row>& live,
   // rounding to move one IRLS weight, and still fails on any real
   // divergence (a dropped or differently analysed frame moves an item by a
   // pixel or more).
-  EXPECT_LT(a.worst, 1e-3) << what << " at " << a.worst_at;
+  EXPECT_LT(a.worst, tolerance) << what << " at " << a.worst_at;
   EXPECT_EQ(a.status_mismatches, 0) << what;
 }
 
@@ -296,7 +296,17 @@ TEST(ReplayVsTrackBag, LiveOutputsAgreeWithTrackBag) {
   expectAgreement("regions", live_regions, readCsv(dir + "/regions.csv", 7, 2, 5, 6), n);
   expectAgreement("planar_targets",
                   liveRows(got.targets, targets_at_add, 8, &instant_motion_tracking::PlanarTargetArray::targets),
-                  readCsv(dir + "/planar_targets.csv", 8, 2, 16, 17), 40);
+                  readCsv(dir + "/planar_targets.csv", 8, 2, 16, 17), 40,
+                  // Not 1e-3: the planar tracker amplifies last-bit floating-point
+                  // differences between processes through its discrete choices
+                  // (points joining or rejected, the ECC stopping rule). The same
+                  // inputs in one process agree exactly (core test TrackingSession.
+                  // LiveAndOfflineAgreeOn*: 0 px, also in a live session fed from this
+                  // bag), but the nodelet manager's process gives 0.146 px (frame 81 of
+                  // 120, from 0.0026 px at frame 45), and valgrind's emulation of the
+                  // same program 0.06 px. 0.3 px bounds that; a dropped or differently
+                  // analysed frame moves a target by a pixel or more.
+                  0.3);
   expectAgreement("anchors", liveRows(got.anchors, anchors_at_add, 9, &instant_motion_tracking::AnchorArray::anchors),
                   readCsv(dir + "/anchors.csv", 9, 2, 10, 11), 40);
   std::system(("rm -rf " + dir).c_str());

@@ -410,15 +410,8 @@ bool BagInput::play(const Callbacks& cb, std::string* error) {
     for (const rosbag::MessageInstance& m : view) {
       const std::string& topic = m.getTopic();
       if (topic == image_topic_) {
-        if (m.getDataType() != image_type_) continue;  // as in the stamps pass
         BagImage im;
-        im.bag_time = m.getTime();
-        im.index = index;
-        if (image_compressed_)
-          im.compressed = m.instantiate<sensor_msgs::CompressedImage>();
-        else
-          im.raw = m.instantiate<sensor_msgs::Image>();
-        if (!im.raw && !im.compressed) continue;
+        if (!imageOf(m, index, &im)) continue;  // another type (as in the stamps pass), or unreadable
         if (index >= static_cast<int>(frame_stamps_.size())) {
           *error = "bag '" + path_ + "' changed while it was read";
           return false;
@@ -446,6 +439,17 @@ bool BagInput::play(const Callbacks& cb, std::string* error) {
   return true;
 }
 
+bool BagInput::imageOf(const rosbag::MessageInstance& m, int index, BagImage* image) const {
+  if (m.getDataType() != image_type_) return false;
+  image->bag_time = m.getTime();
+  image->index = index;
+  if (image_compressed_)
+    image->compressed = m.instantiate<sensor_msgs::CompressedImage>();
+  else
+    image->raw = m.instantiate<sensor_msgs::Image>();
+  return image->raw || image->compressed;
+}
+
 bool BagInput::readFrame(int index, BagImage* image, std::string* error) {
   if (!bag_ || index < 0 || index >= static_cast<int>(frame_bag_times_.size())) {
     *error = "no frame " + std::to_string(index) + " in the bag's window";
@@ -456,15 +460,8 @@ bool BagInput::readFrame(int index, BagImage* image, std::string* error) {
     // Frames recorded at the same bag time: the one whose header stamp is this frame's.
     rosbag::View view(*bag_, rosbag::TopicQuery(image_topic_), t, t);
     for (const rosbag::MessageInstance& m : view) {
-      if (m.getDataType() != image_type_) continue;
       BagImage im;
-      im.bag_time = m.getTime();
-      im.index = index;
-      if (image_compressed_)
-        im.compressed = m.instantiate<sensor_msgs::CompressedImage>();
-      else
-        im.raw = m.instantiate<sensor_msgs::Image>();
-      if ((!im.raw && !im.compressed) || im.header().stamp.toSec() != frame_stamps_[index]) continue;
+      if (!imageOf(m, index, &im) || im.header().stamp.toSec() != frame_stamps_[index]) continue;
       *image = std::move(im);
       return true;
     }

@@ -23,9 +23,10 @@ struct Rendered {
   std::vector<ImuSample> imu;
 };
 
-Rendered render(const std::string& preset, double duration) {
+Rendered render(const std::string& preset, double duration, std::optional<int> seed = std::nullopt) {
   SceneOptions o = test::preset(preset);
   o.duration = duration;
+  if (seed) o.seed = *seed;
   Rendered r;
   r.scene = test::make(o);
   if (!r.scene) return r;
@@ -155,6 +156,23 @@ std::map<int, FrameResult> runOffline(const Rendered& r, const Items& items, Pip
   return out;
 }
 
+double worstDifference(const std::map<int, FrameResult>& a, const std::map<int, FrameResult>& b, int* at);
+
+// The live run against the offline one (full image budget): the worst
+// difference, printed with `name`.
+double liveVsOffline(const char* name, const Rendered& r, const Items& items, const PipelineOptions& o,
+                     std::map<int, FrameResult>* offline = nullptr) {
+  const auto live = runLive(r, items, o);
+  int reread = 0, at = -1;
+  const auto off = runOffline(r, items, o, 512, &reread);
+  EXPECT_EQ(live.size(), r.frames.size());
+  EXPECT_EQ(reread, 0);  // everything fits the budget
+  const double d = worstDifference(live, off, &at);
+  std::printf("%s: live vs offline worst %.3g px (frame %d)\n", name, d, at);
+  if (offline) *offline = off;
+  return d;
+}
+
 double worstDifference(const std::map<int, FrameResult>& a, const std::map<int, FrameResult>& b, int* at) {
   double worst = 0;
   for (const auto& [i, fa] : a) {
@@ -179,25 +197,18 @@ TEST(TrackingSession, LiveAndOfflineAgreeOnRegionsAndPlanarTargets) {
   const auto& c = truth.targets[0].corners;
   items.region = cv::Rect2d(c[0], c[2]);
   const PipelineOptions o;
-  const auto live = runLive(r, items, o);
-  int reread_all = 0, reread_few = 0;
-  const auto offline = runOffline(r, items, o, 512, &reread_all);
-  const auto offline_few = runOffline(r, items, o, 1.0, &reread_few);  // ~3 frames of 640x480
-  ASSERT_EQ(live.size(), r.frames.size());
-  int at_live = -1, at_few = -1;
-  const double d_live = worstDifference(live, offline, &at_live);
-  const double d_few = worstDifference(offline_few, offline, &at_few);
-  std::printf("poster_orbit: live vs offline worst %.3g px (frame %d); 1 MB budget vs 512 MB %.3g px, "
-              "%d frames read again (%d with 512 MB)\n",
-              d_live, at_live, d_few, reread_few, reread_all);
+  std::map<int, FrameResult> offline;
   // The same code on the same frames in a different order of calls: equal
   // up to nothing (the arithmetic is the same); 1e-9 px leaves room for none
   // but the last bit.
-  EXPECT_LT(d_live, 1e-9) << "frame " << at_live;
+  EXPECT_LT(liveVsOffline("poster_orbit", r, items, o, &offline), 1e-9);
   // A frame the cache dropped is read again: the alignment sees every frame.
+  int reread_few = 0, at_few = -1;
+  const auto offline_few = runOffline(r, items, o, 1.0, &reread_few);  // ~3 frames of 640x480
+  const double d_few = worstDifference(offline_few, offline, &at_few);
+  std::printf("poster_orbit: 1 MB image budget vs 512 MB %.3g px, %d frames read again\n", d_few, reread_few);
   EXPECT_LT(d_few, 1e-9) << "frame " << at_few;
   EXPECT_GT(reread_few, 50);
-  EXPECT_EQ(reread_all, 0);
   // And the planar target is tracked (not merely equally wrong): the corner
   // error at the last frame is small (poster_orbit's bar elsewhere is 1 px).
   const FrameTruth last = r.scene->frameTruth(static_cast<int>(r.frames.size()) - 1);
@@ -221,15 +232,8 @@ TEST(TrackingSession, LiveAndOfflineAgreeOnAnchors) {
   ASSERT_TRUE(truth.anchors[0].in_view);
   items.anchor = truth.anchors[0];
   items.region = cv::Rect2d(truth.anchors[0].pixel - cv::Point2d(40, 30), cv::Size2d(80, 60));
-  const PipelineOptions o;
-  const auto live = runLive(r, items, o);
-  int reread = 0;
-  const auto offline = runOffline(r, items, o, 512, &reread);
-  ASSERT_EQ(live.size(), r.frames.size());
-  int at = -1;
-  const double d = worstDifference(live, offline, &at);
-  std::printf("floor_walk: live vs offline worst %.3g px (frame %d)\n", d, at);
-  EXPECT_LT(d, 1e-9) << "frame " << at;  // as above: the same arithmetic
+  std::map<int, FrameResult> offline;
+  EXPECT_LT(liveVsOffline("floor_walk", r, items, PipelineOptions(), &offline), 1e-9);  // as above
   // The anchor is tracked with the IMU: its status is tracked where in view.
   int tracked = 0;
   for (const auto& [i, fr] : offline)
@@ -241,14 +245,8 @@ TEST(TrackingSession, LiveAndOfflineAgreeOnAnchors) {
 // region, the static patch as a planar target and an anchor at its centre,
 // given at frame 30 once frame 60 is in.
 TEST(TrackingSession, LiveAndOfflineAgreeOnCards) {
-  SceneOptions o = test::preset("cards");
-  o.duration = 4.0;
-  o.seed = 2;
-  Rendered r;
-  r.scene = test::make(o);
+  const Rendered r = render("cards", 4.0, 2);
   ASSERT_TRUE(r.scene);
-  for (int i = 0; i < r.scene->frameCount(); ++i) r.frames.push_back(r.scene->renderFrame(i));
-  r.imu = r.scene->imuSamples();
   Items items;
   items.given = 30;
   items.asked = 60;
@@ -269,10 +267,9 @@ TEST(TrackingSession, LiveAndOfflineAgreeOnCards) {
   // With a fixed gyro bias the anchors agree exactly too.
   PipelineOptions po;
   po.imu.estimate_gyro_bias = false;
+  EXPECT_LT(liveVsOffline("cards, fixed gyro bias", r, items, po), 1e-9);  // as above
   int reread = 0, at = -1;
-  double d = worstDifference(runLive(r, items, po), runOffline(r, items, po, 512, &reread), &at);
-  std::printf("cards, fixed gyro bias: live vs offline worst %.3g px (frame %d)\n", d, at);
-  EXPECT_LT(d, 1e-9) << "frame " << at;  // as above: the same arithmetic
+  double d;
   // With the bias estimated (the default), the IMU orientation integrates a
   // still stretch again once it is confirmed (ImuOrientation::reintegrateFrom):
   // a live frame answered before the confirmation keeps the orientation it

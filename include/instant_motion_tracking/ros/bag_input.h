@@ -41,6 +41,7 @@
 
 namespace rosbag {
 class Bag;
+class MessageInstance;
 }
 
 namespace imt {
@@ -129,6 +130,10 @@ class BagInput {
   bool readFrame(int index, BagImage* image, std::string* error);
 
  private:
+  // The image message `m` (of the chosen type) as frame `index`; false for
+  // another type or an unreadable message.
+  bool imageOf(const rosbag::MessageInstance& m, int index, BagImage* image) const;
+
   std::unique_ptr<rosbag::Bag> bag_;
   std::string path_;
   std::string image_topic_, image_type_, camera_info_topic_, imu_topic_;

@@ -13,7 +13,7 @@
 // BM_ModuleVsBaseline interleaves the two per frame and reports their ratio,
 // which is robust to load from other processes.
 #include "instant_motion_tracking/core/motion_analysis.h"
-#include "instant_motion_tracking/core/scene.h"
+#include "instant_motion_tracking/sim/scene.h"
 
 #include <benchmark/benchmark.h>
 #include <opencv2/core/utility.hpp>

@@ -14,7 +14,7 @@
 #include "instant_motion_tracking/core/motion_analysis.h"
 #include "instant_motion_tracking/core/motion_cache.h"
 #include "instant_motion_tracking/core/planar_target.h"
-#include "instant_motion_tracking/core/scene.h"
+#include "instant_motion_tracking/sim/scene.h"
 
 #include <benchmark/benchmark.h>
 #include <opencv2/core/utility.hpp>

@@ -9,7 +9,7 @@
 #include "instant_motion_tracking/core/motion_analysis.h"
 #include "../test/box_metrics.h"
 #include "instant_motion_tracking/core/region_manager.h"
-#include "instant_motion_tracking/core/scene.h"
+#include "instant_motion_tracking/sim/scene.h"
 
 #include <opencv2/imgproc.hpp>
 #ifdef IMT_HAVE_OPENCV_TRACKING

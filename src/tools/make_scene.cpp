@@ -1,12 +1,12 @@
-// make_scene: renders a seeded synthetic scene (core/scene.h) into a rosbag
+// make_scene: renders a seeded synthetic scene (sim/scene.h) into a rosbag
 // with camera images, camera_info, an IMU stream and /tf_static, plus its
 // ground truth as JSON and, optionally, an INIT.yaml for track_bag.
 //
 //   rosrun instant_motion_tracking make_scene --preset cards --out cards.bag \
 //       [--truth cards.json] [--init cards_init.yaml] [--duration 10] [--seed 1] ...
 // Run with --help for every option.
-#include "instant_motion_tracking/core/scene.h"
-#include "instant_motion_tracking/io/scene_files.h"
+#include "instant_motion_tracking/sim/scene.h"
+#include "instant_motion_tracking/sim/scene_files.h"
 #include "instant_motion_tracking/ros/conversions.h"
 
 #include <cv_bridge/cv_bridge.h>

@@ -2,7 +2,7 @@
 // the test for an unknown name) and a generator (failing it on bad options).
 #pragma once
 
-#include "instant_motion_tracking/core/scene.h"
+#include "instant_motion_tracking/sim/scene.h"
 
 #include <gtest/gtest.h>
 

@@ -7,7 +7,7 @@
 #include "instant_motion_tracking/core/imu_orientation.h"
 #include "instant_motion_tracking/core/motion_analysis.h"
 #include "instant_motion_tracking/core/region_manager.h"
-#include "instant_motion_tracking/core/scene.h"
+#include "instant_motion_tracking/sim/scene.h"
 
 #include <gtest/gtest.h>
 #include <opencv2/imgproc.hpp>

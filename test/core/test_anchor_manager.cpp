@@ -5,7 +5,7 @@
 #include "instant_motion_tracking/core/anchor_manager.h"
 #include "instant_motion_tracking/core/motion_analysis.h"
 #include "instant_motion_tracking/core/options.h"
-#include "instant_motion_tracking/core/scene.h"
+#include "instant_motion_tracking/sim/scene.h"
 
 #include "scene_test_util.h"
 

@@ -6,7 +6,7 @@
 // corner distances).
 #include "instant_motion_tracking/core/motion_analysis.h"
 #include "instant_motion_tracking/core/planar_target_manager.h"
-#include "instant_motion_tracking/core/scene.h"
+#include "instant_motion_tracking/sim/scene.h"
 
 #include <gtest/gtest.h>
 

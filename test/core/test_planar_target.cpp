@@ -4,7 +4,7 @@
 // across. Only feature IDs and positions reach the tracker.
 #include "instant_motion_tracking/core/planar_target.h"
 #include "instant_motion_tracking/core/planar_target_manager.h"
-#include "instant_motion_tracking/core/scene.h"
+#include "instant_motion_tracking/sim/scene.h"
 
 // Internal to the core library (the re-acquisition search), tested directly.
 #include "../../src/core/planar_appearance.h"

@@ -5,7 +5,7 @@
 #include "instant_motion_tracking/core/motion_analysis.h"
 #include "../box_metrics.h"
 #include "instant_motion_tracking/core/region_manager.h"
-#include "instant_motion_tracking/core/scene.h"
+#include "instant_motion_tracking/sim/scene.h"
 
 #include <gtest/gtest.h>
 

@@ -2,7 +2,7 @@
 // against the ground truth (IMU: test_scene_imu.cpp; image properties:
 // test_scene_image.cpp). Measured figures quoted in comments come from these
 // tests at the defaults (640x480, hfov 60 deg).
-#include "instant_motion_tracking/core/scene.h"
+#include "instant_motion_tracking/sim/scene.h"
 
 #include "scene_test_util.h"
 

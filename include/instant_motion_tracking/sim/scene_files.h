@@ -13,7 +13,7 @@
 //              anchors [ {id, pixel:[u,v], in_view, placed, t:[..], q:[..]} ] } ]
 #pragma once
 
-#include "instant_motion_tracking/core/scene.h"
+#include "instant_motion_tracking/sim/scene.h"
 
 #include <string>
 

@@ -1,7 +1,7 @@
 // SceneGenerator: options validation, textures, rendering of frames, ground
 // truth and the IMU stream. Layouts and trajectories: scene_presets.cpp;
 // rasterisation: scene_render.cpp; textures: scene_texture.cpp.
-#include "instant_motion_tracking/core/scene.h"
+#include "instant_motion_tracking/sim/scene.h"
 
 #include "scene_internal.h"
 

@@ -1,8 +1,8 @@
-// Private pieces of the scene generator shared by src/core/scene*.cpp.
+// Private pieces of the scene generator shared by src/sim/scene*.cpp.
 // Not installed; nothing outside the scene generator includes it.
 #pragma once
 
-#include "instant_motion_tracking/core/scene.h"
+#include "instant_motion_tracking/sim/scene.h"
 
 #include <Eigen/Core>
 #include <opencv2/core.hpp>

@@ -1,4 +1,4 @@
-#include "instant_motion_tracking/io/scene_files.h"
+#include "instant_motion_tracking/sim/scene_files.h"
 
 #include <nlohmann/json.hpp>
 

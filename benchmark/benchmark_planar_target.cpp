@@ -35,7 +35,7 @@ constexpr double kSeconds = 4.0;  // 120 frames
 struct Sequence {
   std::unique_ptr<imt::MotionCache> cache;
   imt::FrameTruth::Target target;
-  imt::CameraIntrinsics k;
+  imt::CameraModel k;
 };
 
 const Sequence& sequence(int w, int h, bool card) {

@@ -21,18 +21,21 @@ Eigen::Matrix3d anchorOrientation(const Eigen::Matrix3d& R_world_cam_at_placemen
   return R;
 }
 
-double patchSizeFactor(const cv::Point2d& pixel, const CameraIntrinsics& k, const Eigen::Vector3d* normal_cam) {
-  const Eigen::Vector3d d = Eigen::Vector3d((pixel.x - k.cx) / k.fx, (pixel.y - k.cy) / k.fy, 1.0).normalized();
+double patchSizeFactor(const cv::Point2d& pixel, const CameraModel& k, const Eigen::Vector3d* normal_cam) {
+  const cv::Point2d ideal = k.undistort(pixel);  // the ray is the ideal pinhole pixel's
+  const Eigen::Vector3d d = Eigen::Vector3d((ideal.x - k.cx) / k.fx, (ideal.y - k.cy) / k.fy, 1.0).normalized();
   const double dz = std::max(d.z(), 0.1);
   const double nd = normal_cam ? std::max(std::abs(normal_cam->normalized().dot(d)), 0.1) : 1.0;
-  return std::sqrt(nd) / std::pow(dz, 1.5);
+  const double pinhole = std::sqrt(nd) / std::pow(dz, 1.5);
+  return k.hasDistortion() ? pinhole * k.localScale(ideal) : pinhole;
 }
 
 Eigen::Isometry3d anchorPose(const cv::Point2d& pixel, double scale_ratio, double depth0,
-                             const CameraIntrinsics& k, const Eigen::Matrix3d& R_world_cam_now,
+                             const CameraModel& k, const Eigen::Matrix3d& R_world_cam_now,
                              const Eigen::Matrix3d& R_world_anchor) {
+  const cv::Point2d ideal = k.undistort(pixel);  // image pixel -> the ray's ideal pinhole pixel
   const Eigen::Vector3d ray =
-      Eigen::Vector3d((pixel.x - k.cx) / k.fx, (pixel.y - k.cy) / k.fy, 1.0).normalized();
+      Eigen::Vector3d((ideal.x - k.cx) / k.fx, (ideal.y - k.cy) / k.fy, 1.0).normalized();
   Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
   T.translation() = depth0 * scale_ratio * ray;
   T.linear() = R_world_cam_now.transpose() * R_world_anchor;

@@ -76,17 +76,19 @@ AnchorManager::AnchorManager(const AnchorOptions& options, const ImuOptions& imu
   if (options_.rotationCamImu(&q)) rotation_fixed_ = imu_.setRotationCamImu(q);
   // Frames without a usable camera model (blur, a featureless view): the
   // regions, the anchors' among them, move by the IMU rotation instead.
+  // Through a distorting lens that motion is no homography between image
+  // pixels; the region manager takes one, so it gets the best fit over the
+  // image (CameraModel::imageHomography; see imu_orientation.h).
   regions_->setCameraFallback([this](double t_prev, double t, Eigen::Matrix3d* H) {
-    return imu_.rotationHomography(intrinsics().K(), t_prev, t, H);
+    return imu_.rotationHomography(intrinsics(), t_prev, t, H);
   });
 }
 
 AnchorManager::~AnchorManager() { regions_->setCameraFallback(nullptr); }
 
-CameraIntrinsics AnchorManager::intrinsics() const {
+CameraModel AnchorManager::intrinsics() const {
   const cv::Size size = regions_->cache().imageSize();
-  if (info_.valid && info_.width == size.width && info_.height == size.height) return info_;
-  return CameraIntrinsics::fromFieldOfView(size.width, size.height, default_hfov_deg_);
+  return CameraModel::forFrame(info_, size.width, size.height, default_hfov_deg_);
 }
 
 bool AnchorManager::setRotationCamImu(const Eigen::Quaterniond& q_cam_imu) {
@@ -238,7 +240,7 @@ AnchorState AnchorManager::stateOf(Anchor& a, const RegionState& r, double stamp
   if (estimate) {
     // The surface's normal (world up) in the camera at placement and now,
     // when the IMU gives both; else the patch is taken as facing the camera.
-    const CameraIntrinsics K = intrinsics();
+    const CameraModel K = intrinsics();
     const bool tilt = options_.surface == "horizontal" && a.bound && imu_ok;
     const Eigen::Vector3d up0 = a.R_world_cam0.transpose() * Eigen::Vector3d::UnitZ();
     const Eigen::Vector3d up = R_wc.transpose() * Eigen::Vector3d::UnitZ();

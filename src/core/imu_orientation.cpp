@@ -268,6 +268,14 @@ bool ImuOrientation::rotationHomography(const Eigen::Matrix3d& K, double t1, dou
   return true;
 }
 
+bool ImuOrientation::rotationHomography(const CameraModel& k, double t1, double t2,
+                                        Eigen::Matrix3d* H) const {
+  Eigen::Matrix3d h;
+  if (!rotationHomography(k.K(), t1, t2, &h)) return false;
+  if (H) *H = k.imageHomography(h);
+  return true;
+}
+
 Eigen::Vector3d ImuOrientation::upInCamera(double t) const {
   Eigen::Matrix3d R;
   if (!R_world_cam(t, &R)) return Eigen::Vector3d::Zero();

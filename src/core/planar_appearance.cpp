@@ -57,8 +57,77 @@ int imageLevelFor(double ratio) {
   return std::min(4, static_cast<int>(std::lround(std::log2(ratio))));
 }
 
+namespace {
+
+// sampleImage through a distorting lens: every grid pixel's image pixel,
+// looked up by remap on the reduced part of the image under the grid.
+void sampleThroughLens(const cv::Mat& gray, int level, const Eigen::Matrix3d& M, cv::Size size,
+                       const CameraModel& lens, cv::Mat* out, cv::Mat* valid) {
+  const int s = 1 << level;
+  std::vector<cv::Point2d> px;
+  px.reserve(size.area());
+  std::vector<uchar> front(size.area(), 0);
+  for (int r = 0; r < size.height; ++r) {
+    for (int c = 0; c < size.width; ++c) {
+      const Eigen::Vector3d p = M * Eigen::Vector3d(c, r, 1);
+      const bool ok = p.z() > 1e-9;
+      front[r * size.width + c] = ok;
+      px.emplace_back(ok ? p.x() / p.z() : std::nan(""), ok ? p.y() / p.z() : std::nan(""));
+    }
+  }
+  lens.distort(&px);  // ideal -> image pixels (ours, full resolution)
+  double x0 = 1e18, y0 = 1e18, x1 = -1e18, y1 = -1e18;
+  for (const cv::Point2d& p : px) {
+    if (!(std::isfinite(p.x) && std::isfinite(p.y))) continue;
+    x0 = std::min(x0, p.x), x1 = std::max(x1, p.x);
+    y0 = std::min(y0, p.y), y1 = std::max(y1, p.y);
+  }
+  *out = cv::Mat::zeros(size, CV_32F);
+  *valid = cv::Mat::zeros(size, CV_8U);
+  const double margin = 4.0 * s + 2;  // pyrDown's 5 taps per level, bilinear sampling
+  const auto lo = [&](double v, int hi) {
+    return std::clamp(static_cast<int>(std::floor(std::max(v - margin, -1.0) / s)) * s, 0, hi);
+  };
+  const auto up = [&](double v, int hi) {
+    return std::clamp(static_cast<int>(std::ceil(std::min(v + margin, hi + 1.0) / s)) * s, 0, hi);
+  };
+  if (!(x1 >= x0) || !(y1 >= y0)) return;  // nothing in front of the camera
+  const int l = lo(x0, gray.cols), t = lo(y0, gray.rows);
+  const cv::Rect roi(l, t, up(x1, gray.cols) - l, up(y1, gray.rows) - t);
+  if (roi.width < s || roi.height < s) return;  // entirely outside the frame
+  cv::Mat im = gray(roi);
+  for (int i = 0; i < level; ++i) {
+    cv::Mat down;
+    cv::pyrDown(im, down);
+    im = down;
+  }
+  // Our full-resolution pixel -> OpenCV pixel of the cropped pyramid level.
+  const Eigen::Matrix3d S = toPyramidPixel(level);
+  cv::Mat map_x(size, CV_32F), map_y(size, CV_32F);
+  for (int r = 0; r < size.height; ++r) {
+    for (int c = 0; c < size.width; ++c) {
+      const cv::Point2d& p = px[r * size.width + c];
+      const bool ok = front[r * size.width + c] && std::isfinite(p.x) && std::isfinite(p.y);
+      map_x.at<float>(r, c) = ok ? static_cast<float>(S(0, 0) * p.x + S(0, 2) - roi.x / s) : -1e6f;
+      map_y.at<float>(r, c) = ok ? static_cast<float>(S(1, 1) * p.y + S(1, 2) - roi.y / s) : -1e6f;
+    }
+  }
+  cv::Mat warped;
+  cv::remap(im, warped, map_x, map_y, cv::INTER_LINEAR, cv::BORDER_CONSTANT, 0);
+  warped.convertTo(*out, CV_32F);
+  const cv::Mat ones(im.size(), CV_8U, cv::Scalar(255));
+  cv::remap(ones, *valid, map_x, map_y, cv::INTER_NEAREST, cv::BORDER_CONSTANT, 0);
+  cv::erode(*valid, *valid, cv::Mat());  // no bilinear samples mixing in the border
+}
+
+}  // namespace
+
 void sampleImage(const cv::Mat& gray, int level, const Eigen::Matrix3d& M, cv::Size size,
-                 cv::Mat* out, cv::Mat* valid) {
+                 cv::Mat* out, cv::Mat* valid, const CameraModel* lens) {
+  if (lens && lens->hasDistortion()) {
+    sampleThroughLens(gray, level, M, size, *lens, out, valid);
+    return;
+  }
   const int s = 1 << level;
   cv::Rect roi(0, 0, gray.cols, gray.rows);
   double x0 = 1e18, y0 = 1e18, x1 = -1e18, y1 = -1e18;

@@ -8,6 +8,8 @@
 // templates and image pyramid levels use OpenCV's (centres at integers).
 #pragma once
 
+#include "instant_motion_tracking/core/camera_model.h"
+
 #include <Eigen/Geometry>
 #include <opencv2/core.hpp>
 
@@ -33,9 +35,13 @@ int imageLevelFor(double ratio);
 // pixel of the full image), as CV_32F, and the mask of samples that fell
 // inside the image. Only the part of the image under the grid (with a margin
 // for the filters) is reduced, so the cost follows the target's size on
-// screen rather than the frame's.
+// screen rather than the frame's. With a distorting `lens`, M maps to ideal
+// pinhole pixels and each grid pixel is looked up where the lens shows it
+// (lens->distort(M g)): the template then lives on the undistorted plane, so
+// the alignment's homography stays exact through the lens (remap instead of
+// warpPerspective; without distortion, or lens == nullptr, the plain warp).
 void sampleImage(const cv::Mat& gray, int level, const Eigen::Matrix3d& M, cv::Size size,
-                 cv::Mat* out, cv::Mat* valid);
+                 cv::Mat* out, cv::Mat* valid, const CameraModel* lens = nullptr);
 
 // The pixels of `valid` where `aligned` (the frame on the template grid)
 // shows the template, i.e. without what covers it (an occluder, a

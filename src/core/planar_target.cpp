@@ -20,9 +20,10 @@ namespace {
 using namespace planar_detail;
 
 // Reprojection residual of a point (X, Y, 0) of the target plane under the
-// pose (angle-axis, translation) from target to camera.
+// pose (angle-axis, translation) from target to camera; (u, v) is an ideal
+// pinhole pixel (an image pixel undistorted through the camera model).
 struct Reprojection {
-  Reprojection(const Eigen::Vector2d& xy, const Eigen::Vector2d& uv, const CameraIntrinsics& k)
+  Reprojection(const Eigen::Vector2d& xy, const Eigen::Vector2d& uv, const CameraModel& k)
       : X(xy.x()), Y(xy.y()), u(uv.x()), v(uv.y()), fx(k.fx), fy(k.fy), cx(k.cx), cy(k.cy) {}
   template <class T>
   bool operator()(const T* aa, const T* t, T* r) const {
@@ -40,7 +41,8 @@ struct Reprojection {
   double X, Y, u, v, fx, fy, cx, cy;
 };
 
-// A point of the target plane (X, Y) and where it is seen (u, v).
+// A point of the target plane (X, Y) and where it is seen (u, v), an ideal
+// pinhole pixel (CameraModel::undistort of the image pixel).
 struct PlaneObservation {
   uint32_t id;
   Eigen::Vector2d xy, uv;
@@ -49,7 +51,7 @@ struct PlaneObservation {
 // The pose (target to camera) that minimises the reprojection error of `obs`,
 // by Levenberg-Marquardt from `T` (updated in place); `loss_scale` > 0 makes
 // the loss Huber. False when no usable solution was found.
-bool fitPose(const std::vector<PlaneObservation>& obs, const CameraIntrinsics& k, double loss_scale,
+bool fitPose(const std::vector<PlaneObservation>& obs, const CameraModel& k, double loss_scale,
              int max_iterations, Eigen::Isometry3d* T) {
   const Eigen::AngleAxisd aa0(T->linear());
   double aa[3], t[3];
@@ -193,7 +195,7 @@ std::string validateTargetRequest(const std::array<cv::Point2d, 4>& corners, dou
 
 std::unique_ptr<PlanarTargetTracker> PlanarTargetTracker::create(
     const PlanarTargetOptions& options, uint32_t id, const std::array<cv::Point2d, 4>& corners,
-    double width_m, double height_m, const CameraIntrinsics& k, const MotionData& md,
+    double width_m, double height_m, const CameraModel& k, const MotionData& md,
     std::string* error, const cv::Mat& gray) {
   if (std::string e = options.validate(); !e.empty()) {
     *error = e;
@@ -238,7 +240,8 @@ bool PlanarTargetTracker::poseFromCorners(const std::array<cv::Point2d, 4>& corn
   std::vector<cv::Point3d> obj;
   for (const auto& p : targetCorners(state_.width_m, state_.height_m))
     obj.emplace_back(p.x(), p.y(), p.z());
-  const std::vector<cv::Point2d> img(corners.begin(), corners.end());
+  std::vector<cv::Point2d> img(corners.begin(), corners.end());
+  k_.undistort(&img);  // image -> ideal pinhole pixels (no-op without distortion)
   const cv::Matx33d K(k_.fx, 0, k_.cx, 0, k_.fy, k_.cy, 0, 0, 1);
   cv::Vec3d rvec, tvec;
   bool ok = false;
@@ -258,10 +261,18 @@ bool PlanarTargetTracker::poseFromCorners(const std::array<cv::Point2d, 4>& corn
 
 Eigen::Vector2d PlanarTargetTracker::project(const Eigen::Vector3d& p_target) const {
   const Eigen::Vector3d q = state_.T_cam_target * p_target;
-  return {k_.fx * q.x() / q.z() + k_.cx, k_.fy * q.y() / q.z() + k_.cy};
+  const Eigen::Vector2d ideal(k_.fx * q.x() / q.z() + k_.cx, k_.fy * q.y() / q.z() + k_.cy);
+  if (!k_.hasDistortion()) return ideal;
+  const cv::Point2d px = k_.distort(cv::Point2d(ideal.x(), ideal.y()));
+  return {px.x, px.y};
 }
 
-bool PlanarTargetTracker::backProject(const Eigen::Vector2d& px, Eigen::Vector2d* xy) const {
+bool PlanarTargetTracker::backProject(const Eigen::Vector2d& image_px, Eigen::Vector2d* xy) const {
+  Eigen::Vector2d px = image_px;
+  if (k_.hasDistortion()) {
+    const cv::Point2d ideal = k_.undistort(cv::Point2d(image_px.x(), image_px.y()));
+    px = {ideal.x, ideal.y};
+  }
   const Eigen::Vector3d d((px.x() - k_.cx) / k_.fx, (px.y() - k_.cy) / k_.fy, 1.0);
   const Eigen::Matrix3d R = state_.T_cam_target.linear();
   const Eigen::Vector3d t = state_.T_cam_target.translation();
@@ -322,6 +333,12 @@ void PlanarTargetTracker::stepPerspective(const MotionData& md, const Eigen::Mat
   }
   state_.points = static_cast<int>(obs.size());
   if (static_cast<int>(obs.size()) < options_.min_points) return;
+  if (k_.hasDistortion()) {  // the fit compares ideal pinhole pixels
+    std::vector<cv::Point2d> uv;
+    for (const PlaneObservation& o : obs) uv.emplace_back(o.uv.x(), o.uv.y());
+    k_.undistort(&uv);
+    for (size_t i = 0; i < obs.size(); ++i) obs[i].uv = {uv[i].x, uv[i].y};
+  }
 
   const Eigen::Isometry3d T_last = state_.T_cam_target;
   if (!fitPose(obs, k_, options_.loss_scale, options_.max_iterations, &state_.T_cam_target)) {
@@ -396,6 +413,8 @@ void PlanarTargetTracker::dropDisagreeingPoints(const MotionData& md, bool reanc
   state_.rms_error = inliers ? std::sqrt(sq / inliers) : 0;
 }
 
+// Target plane (X, Y, 1) -> ideal pinhole pixels, K [r1 r2 t] (sampleImage
+// looks them up through the lens).
 Eigen::Matrix3d PlanarTargetTracker::planeToImage() const {
   const Eigen::Matrix3d K =
       (Eigen::Matrix3d() << k_.fx, 0, k_.cx, 0, k_.fy, k_.cy, 0, 0, 1).finished();
@@ -420,7 +439,7 @@ bool PlanarTargetTracker::captureAppearance(const cv::Mat& gray) {
   const int li = imageLevelFor(seen / long_px);
   cv::Mat tpl, valid;
   sampleImage(gray, li, planeToImage() * templateToPlane(a->px_per_m, 0, w, h), cv::Size(W, H),
-              &tpl, &valid);
+              &tpl, &valid, &k_);
   cv::Scalar mean, stddev;
   cv::meanStdDev(tpl, mean, stddev, valid);
   if (cv::countNonZero(valid) < 0.5 * W * H || stddev[0] < 2.0)
@@ -470,7 +489,7 @@ bool PlanarTargetTracker::align(const cv::Mat& gray, Eigen::Matrix3d* G, double*
     const Eigen::Matrix3d A = templateToPlane(a.px_per_m, l, w, h);
     const cv::Mat& tpl = a.levels[l];
     cv::Mat warped, valid;
-    sampleImage(gray, li, *G * A, tpl.size(), &warped, &valid);
+    sampleImage(gray, li, *G * A, tpl.size(), &warped, &valid, &k_);
     cv::bitwise_and(valid, a.masks[l], valid);
     const int n_valid = cv::countNonZero(valid);
     if (n_valid < 0.25 * valid.total()) return false;  // mostly outside the frame
@@ -544,7 +563,7 @@ bool PlanarTargetTracker::search(const cv::Mat& gray, Eigen::Matrix3d* G, cv::Ma
   widen(0, 2) = widen(1, 2) = -margin;
   cv::Mat window, valid;
   sampleImage(gray, imageLevelFor(r0 * (1 << ls)), *G * A * widen,
-              cv::Size(tpl.cols + 2 * margin, tpl.rows + 2 * margin), &window, &valid);
+              cv::Size(tpl.cols + 2 * margin, tpl.rows + 2 * margin), &window, &valid, &k_);
   const SearchMatch m = searchTemplate(tpl, a.masks[ls], window, margin);
   if (!(m.score >= options_.refine_search_min_score) ||
       !(m.score - m.second >= options_.refine_search_margin))
@@ -661,6 +680,8 @@ void PlanarTargetTracker::stepHomography(const MotionData& md) {
     state_.points = 0;
     return;
   }
+  k_.undistort(&src);  // a plane's motion is a homography between ideal pixels only
+  k_.undistort(&dst);
   cv::Mat inlier_mask;
   const cv::Mat H = cv::findHomography(src, dst, cv::RANSAC, 2.0, inlier_mask);
   if (H.empty()) {
@@ -669,7 +690,9 @@ void PlanarTargetTracker::stepHomography(const MotionData& md) {
   }
   state_.points = cv::countNonZero(inlier_mask);
   std::vector<cv::Point2d> in(state_.corners.begin(), state_.corners.end()), out;
+  k_.undistort(&in);
   cv::perspectiveTransform(in, out, H);
+  k_.distort(&out);
   std::array<cv::Point2d, 4> c;
   std::copy(out.begin(), out.end(), c.begin());
   state_.corners = c;

@@ -38,7 +38,7 @@ std::vector<PlanarTargetState> PlanarTargetManager::update(const MotionCache& ca
 }
 
 bool PlanarTargetManager::add(uint32_t id, double stamp, const std::array<cv::Point2d, 4>& corners,
-                              double width_m, double height_m, const CameraIntrinsics& k,
+                              double width_m, double height_m, const CameraModel& k,
                               const MotionCache& cache, uint32_t* assigned_id, std::string* error) {
   if (id != 0 && targets_.count(id)) {
     *error = "planar target id " + std::to_string(id) + " is already tracked";

@@ -58,10 +58,10 @@ void AnchorNodelet::updateSubscription() {
 }
 
 void AnchorNodelet::infoCb(const sensor_msgs::CameraInfoConstPtr& msg) {
-  CameraIntrinsics k;
+  CameraModel k;
   std::string why;
   std::lock_guard<std::mutex> lock(mutex_);
-  if (fromCameraInfo(*msg, &k, &why)) {
+  if (fromCameraInfo(*msg, &k, &why, config_.pipeline.image_rectified)) {
     anchors_->setIntrinsics(k);
   } else {
     NODELET_WARN_THROTTLE(10.0, "ignoring camera_info: %s", why.c_str());

@@ -99,10 +99,10 @@ void MotionAnalysisNodelet::anchorsCb(const instant_motion_tracking::AnchorArray
 }
 
 void MotionAnalysisNodelet::infoCb(const sensor_msgs::CameraInfoConstPtr& msg) {
-  CameraIntrinsics k;
+  CameraModel k;
   std::string why;
   std::lock_guard<std::mutex> l(debug_mutex_);
-  if (fromCameraInfo(*msg, &k, &why)) {
+  if (fromCameraInfo(*msg, &k, &why, config_.pipeline.image_rectified)) {
     intrinsics_ = k;
   } else {
     NODELET_WARN_THROTTLE(10.0, "ignoring camera_info: %s", why.c_str());
@@ -122,7 +122,7 @@ void MotionAnalysisNodelet::publishDebug(bool all) {
       DebugOverlay overlay = overlays_.select(stamp);
       overlay.intrinsics = intrinsics_;
       if (!overlay.intrinsics.valid || overlay.intrinsics.width != f.md.width)
-        overlay.intrinsics = CameraIntrinsics::fromFieldOfView(f.md.width, f.md.height,
+        overlay.intrinsics = CameraModel::fromFieldOfView(f.md.width, f.md.height,
                                                                config_.pipeline.default_hfov_deg);
       drawOverlay(&bgr, overlay);
       debug_pub_.publish(cv_bridge::CvImage(f.header, "bgr8", bgr).toImageMsg());

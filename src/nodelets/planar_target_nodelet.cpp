@@ -59,17 +59,17 @@ void PlanarTargetNodelet::updateSubscription() {
   health_.setSubscribed(bool(motion_sub_));
 }
 
-CameraIntrinsics PlanarTargetNodelet::intrinsics() const {
+CameraModel PlanarTargetNodelet::intrinsics() const {
   const cv::Size size = cache_->imageSize();
   if (info_.valid && info_.width == size.width && info_.height == size.height) return info_;
-  return CameraIntrinsics::fromFieldOfView(size.width, size.height, config_.pipeline.default_hfov_deg);
+  return CameraModel::fromFieldOfView(size.width, size.height, config_.pipeline.default_hfov_deg);
 }
 
 void PlanarTargetNodelet::infoCb(const sensor_msgs::CameraInfoConstPtr& msg) {
-  CameraIntrinsics k;
+  CameraModel k;
   std::string why;
   std::lock_guard<std::mutex> lock(mutex_);
-  if (fromCameraInfo(*msg, &k, &why)) {
+  if (fromCameraInfo(*msg, &k, &why, config_.pipeline.image_rectified)) {
     info_ = k;
   } else {
     NODELET_WARN_THROTTLE(10.0, "ignoring camera_info: %s", why.c_str());

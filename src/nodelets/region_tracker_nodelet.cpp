@@ -46,10 +46,10 @@ void RegionTrackerNodelet::updateSubscription() {
 }
 
 void RegionTrackerNodelet::infoCb(const sensor_msgs::CameraInfoConstPtr& msg) {
-  CameraIntrinsics k;
+  CameraModel k;
   std::string why;
   std::lock_guard<std::mutex> lock(mutex_);
-  if (fromCameraInfo(*msg, &k, &why)) {
+  if (fromCameraInfo(*msg, &k, &why, config_.pipeline.image_rectified)) {
     intrinsics_ = k;
   } else {
     NODELET_WARN_THROTTLE(10.0, "ignoring camera_info: %s", why.c_str());
@@ -79,9 +79,9 @@ void RegionTrackerNodelet::motionCb(const instant_motion_tracking::MotionDataCon
   }
   if (regions_pub_.getNumSubscribers() > 0) regions_pub_.publish(toMsg(states, msg->header));
   if (markers_pub_.getNumSubscribers() > 0) {
-    CameraIntrinsics k = intrinsics_;
+    CameraModel k = intrinsics_;
     if (!k.valid || k.width != md.width)
-      k = CameraIntrinsics::fromFieldOfView(md.width, md.height, config_.pipeline.default_hfov_deg);
+      k = CameraModel::fromFieldOfView(md.width, md.height, config_.pipeline.default_hfov_deg);
     markers_pub_.publish(regionMarkers(states, msg->header, k));
   }
   std::vector<std::string> statuses;

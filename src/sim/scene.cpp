@@ -75,6 +75,73 @@ cv::Size textureSize(const ScenePlane& p) {
 }  // namespace
 
 // ---------------------------------------------------------------------------
+// The camera: pinhole of hfov_deg plus the lens distortion.
+
+namespace {
+
+// Points along the image's border (our pixels), every `step` px.
+std::vector<cv::Point2d> borderPoints(int w, int h, double step) {
+  std::vector<cv::Point2d> pts;
+  for (double x = 0; x <= w; x += step) {
+    pts.emplace_back(x, 0);
+    pts.emplace_back(x, h);
+  }
+  for (double y = 0; y <= h; y += step) {
+    pts.emplace_back(0, y);
+    pts.emplace_back(w, y);
+  }
+  return pts;
+}
+
+// The scene's camera model; false (*why) when the distortion is unknown,
+// malformed, or not one-to-one over the image (a polynomial folding back:
+// image border points must come back from distort(undistort(p)) within 0.01 px).
+bool lensModel(const SceneOptions& o, std::string* why, CameraModel* out = nullptr) {
+  CameraModel k = CameraModel::fromFieldOfView(o.width, o.height, o.hfov_deg);
+  CameraModel::Distortion d;
+  if (!CameraModel::parseDistortion(o.distortion_model, &d)) {
+    *why = "unknown distortion_model '" + o.distortion_model + "'";
+    return false;
+  }
+  if (!k.setDistortion(d, o.distortion, why)) return false;
+  if (k.valid && k.hasDistortion()) {
+    const std::vector<cv::Point2d> border = borderPoints(o.width, o.height, 8.0);
+    std::vector<cv::Point2d> back = border;
+    k.undistort(&back);
+    k.distort(&back);
+    for (size_t i = 0; i < border.size(); ++i) {
+      if (!(cv::norm(back[i] - border[i]) < 0.01)) {
+        *why = "distortion is not invertible at the image border";
+        return false;
+      }
+    }
+  }
+  if (out) *out = k;
+  return true;
+}
+
+// Where the lens shows ideal pixel `p`. Inside `field` (the ideal pixels of
+// the image's own field, where the lens is one-to-one) the distortion;
+// beyond it a polynomial lens folds back, so points outside continue from
+// the field's border with unit slope (outside the image either way).
+cv::Point2d showThroughLens(const CameraModel& k, const cv::Rect& field, const cv::Point2d& p) {
+  if (!k.hasDistortion() || !(std::isfinite(p.x) && std::isfinite(p.y))) return p;
+  const cv::Point2d c(k.cx, k.cy);
+  const cv::Point2d d = p - c;
+  // The largest s in [0, 1] with c + s d inside the field.
+  double s = 1.0;
+  if (d.x > 0) s = std::min(s, (field.x + field.width - c.x) / d.x);
+  if (d.x < 0) s = std::min(s, (field.x - c.x) / d.x);
+  if (d.y > 0) s = std::min(s, (field.y + field.height - c.y) / d.y);
+  if (d.y < 0) s = std::min(s, (field.y - c.y) / d.y);
+  if (s >= 1.0) return k.distort(p);
+  const cv::Point2d b = c + std::max(0.0, s) * d;
+  return k.distort(b) + (p - b);
+}
+
+}  // namespace
+
+// ---------------------------------------------------------------------------
 // SceneOptions::validate
 
 std::string SceneOptions::validate() const {
@@ -94,6 +161,11 @@ std::string SceneOptions::validate() const {
   c.range("width", width, 16, 8192);
   c.range("height", height, 16, 8192);
   c.check(hfov_deg > 1 && hfov_deg < 179, "hfov_deg", "must be in (1, 179)", hfov_deg);
+  {
+    std::string why;
+    const bool lens_ok = lensModel(*this, &why);
+    c.check(lens_ok, "distortion", why, "'" + distortion_model + "'");
+  }
   c.range("start_time", start_time, 0, 1e10);
   c.range("supersample", supersample, 1, 8);
   c.range("noise_sigma", noise_sigma, 0, 100);
@@ -153,7 +225,12 @@ std::string SceneOptions::validate() const {
 // SceneGenerator
 
 struct SceneGenerator::Impl {
-  CameraIntrinsics K;
+  CameraModel K;  // with the lens distortion
+  // With distortion: the pinhole view is rendered on `canvas` (ideal pixels,
+  // ours, covering the lens's field) and remapped through the lens: image
+  // pixel (OpenCV) -> canvas pixel (OpenCV).
+  cv::Rect canvas;
+  cv::Mat lens_map_x, lens_map_y;  // CV_32FC1, image size
   std::vector<std::shared_ptr<const MipTexture>> textures;  // per plane; null = flat
   int background = -1;  // the single background plane, -1 if none or several
   std::vector<Eigen::Matrix3d> R_world_anchor;  // per anchor, fixed at placement
@@ -182,7 +259,38 @@ std::unique_ptr<SceneGenerator> SceneGenerator::create(const SceneOptions& optio
   o.q_cam_imu.normalize();
 
   auto impl = std::make_shared<Impl>();
-  impl->K = CameraIntrinsics::fromFieldOfView(o.width, o.height, o.hfov_deg);
+  std::string lens_error;
+  if (!lensModel(o, &lens_error, &impl->K)) return fail("distortion: " + lens_error);
+  if (impl->K.hasDistortion()) {
+    // The canvas: the undistorted image border's bounding box, plus a margin
+    // for the bilinear lookup.
+    std::vector<cv::Point2d> border = borderPoints(o.width, o.height, 2.0);
+    impl->K.undistort(&border);
+    double x0 = 0, y0 = 0, x1 = o.width, y1 = o.height;
+    for (const cv::Point2d& p : border) {
+      x0 = std::min(x0, p.x), x1 = std::max(x1, p.x);
+      y0 = std::min(y0, p.y), y1 = std::max(y1, p.y);
+    }
+    const int l = static_cast<int>(std::floor(x0)) - 2, t = static_cast<int>(std::floor(y0)) - 2;
+    impl->canvas = cv::Rect(l, t, static_cast<int>(std::ceil(x1)) + 2 - l,
+                            static_cast<int>(std::ceil(y1)) + 2 - t);
+    if (impl->canvas.width > 4 * o.width || impl->canvas.height > 4 * o.height)
+      return fail("distortion: the lens sees more than 4x the pinhole's field; not rendered");
+    std::vector<cv::Point2d> centres;
+    centres.reserve(static_cast<size_t>(o.width) * o.height);
+    for (int r = 0; r < o.height; ++r)
+      for (int c = 0; c < o.width; ++c) centres.emplace_back(c + 0.5, r + 0.5);
+    impl->K.undistort(&centres);
+    impl->lens_map_x.create(o.height, o.width, CV_32FC1);
+    impl->lens_map_y.create(o.height, o.width, CV_32FC1);
+    for (int r = 0; r < o.height; ++r) {
+      for (int c = 0; c < o.width; ++c) {
+        const cv::Point2d& p = centres[static_cast<size_t>(r) * o.width + c];
+        impl->lens_map_x.at<float>(r, c) = static_cast<float>(p.x - impl->canvas.x - 0.5);
+        impl->lens_map_y.at<float>(r, c) = static_cast<float>(p.y - impl->canvas.y - 0.5);
+      }
+    }
+  }
   size_t next_file = 0, backgrounds = 0;
   for (size_t i = 0; i < o.planes.size(); ++i) {
     const ScenePlane& p = o.planes[i];
@@ -242,7 +350,7 @@ int SceneGenerator::frameCount() const {
 
 double SceneGenerator::frameStamp(int i) const { return options_.start_time + i / options_.fps; }
 
-CameraIntrinsics SceneGenerator::intrinsics() const { return impl_->K; }
+CameraModel SceneGenerator::intrinsics() const { return impl_->K; }
 
 Eigen::Isometry3d SceneGenerator::T_world_cam(double t) const {
   return scene_detail::trajectoryPose(options_.trajectory, options_.trajectory_amplitude, t);
@@ -260,8 +368,9 @@ double SceneGenerator::brightnessGain(double t) const {
 std::optional<cv::Point2d> SceneGenerator::project(const Eigen::Vector3d& p_world, double t) const {
   const Eigen::Vector3d p = T_world_cam(t).inverse() * p_world;
   if (p.z() <= 0) return std::nullopt;
-  const CameraIntrinsics& K = impl_->K;
-  return cv::Point2d(K.fx * p.x() / p.z() + K.cx, K.fy * p.y() / p.z() + K.cy);
+  const CameraModel& K = impl_->K;
+  return showThroughLens(K, impl_->canvas,
+                         cv::Point2d(K.fx * p.x() / p.z() + K.cx, K.fy * p.y() / p.z() + K.cy));
 }
 
 namespace {
@@ -305,8 +414,16 @@ std::vector<size_t> drawOrder(const std::vector<ScenePlane>& planes,
 cv::Mat SceneGenerator::renderAt(double t) const {
   const SceneOptions& o = options_;
   const int ss = o.supersample;
-  const int cw = o.width * ss, ch = o.height * ss;
+  // Without distortion the canvas is the image; with it, the pinhole view of
+  // the lens's whole field (remapped through the lens below).
+  const bool lens = impl_->K.hasDistortion();
+  const cv::Size canvas_size = lens ? impl_->canvas.size() : cv::Size(o.width, o.height);
+  const int cw = canvas_size.width * ss, ch = canvas_size.height * ss;
   Eigen::Matrix3d Kc = impl_->K.K();
+  if (lens) {
+    Kc(0, 2) -= impl_->canvas.x;
+    Kc(1, 2) -= impl_->canvas.y;
+  }
   Kc.topRows<2>() *= ss;
 
   auto renderInstant = [&](double tt) {
@@ -327,7 +444,13 @@ cv::Mat SceneGenerator::renderAt(double t) const {
       look.flat_gray = p.flat_gray;
       scene_detail::paintPlane(view, look, &canvas);
     }
-    if (ss > 1) cv::resize(canvas, canvas, cv::Size(o.width, o.height), 0, 0, cv::INTER_AREA);
+    if (ss > 1) cv::resize(canvas, canvas, canvas_size, 0, 0, cv::INTER_AREA);
+    if (lens) {
+      cv::Mat seen;
+      cv::remap(canvas, seen, impl_->lens_map_x, impl_->lens_map_y, cv::INTER_LINEAR,
+                cv::BORDER_CONSTANT, cv::Scalar(o.void_gray));
+      return seen;
+    }
     return canvas;
   };
 
@@ -356,7 +479,7 @@ cv::Mat SceneGenerator::renderAt(double t) const {
 cv::Mat SceneGenerator::renderFrame(int i) const { return renderAt(i / options_.fps); }
 
 std::optional<Eigen::Matrix3d> SceneGenerator::backgroundHomography(int from, int to) const {
-  if (impl_->background < 0) return std::nullopt;
+  if (impl_->background < 0 || impl_->K.hasDistortion()) return std::nullopt;
   const size_t b = static_cast<size_t>(impl_->background);
   const Eigen::Matrix3d K = impl_->K.K();
   auto G = [&](int i) {  // plane metres -> image pixels (homogeneous)
@@ -414,7 +537,25 @@ Polygon projectedRect(const Eigen::Matrix3d& K, const Eigen::Isometry3d& T_cam_p
   return out;
 }
 
-cv::Rect2d boundingBox(const Polygon& poly) {
+// Bounding box of `poly` (ideal pixels) as the lens shows it: its edges
+// sampled (32 points each) and distorted; the polygon's own without distortion.
+cv::Rect2d boundingBox(const Polygon& ideal, const CameraModel& lens, const cv::Rect& field) {
+  Polygon poly = ideal;
+  if (lens.hasDistortion() && !ideal.empty()) {
+    std::vector<cv::Point2d> pts;
+    for (size_t i = 0; i < ideal.size(); ++i) {
+      const Eigen::Vector2d &a = ideal[i], &b = ideal[(i + 1) % ideal.size()];
+      for (int k = 0; k < 32; ++k) {
+        const Eigen::Vector2d p = a + (b - a) * (k / 32.0);
+        pts.emplace_back(p.x(), p.y());
+      }
+    }
+    poly.clear();
+    for (const cv::Point2d& p : pts) {
+      const cv::Point2d q = showThroughLens(lens, field, p);
+      poly.emplace_back(q.x, q.y);
+    }
+  }
   if (poly.empty()) return cv::Rect2d();
   double x0 = 1e300, y0 = 1e300, x1 = -1e300, y1 = -1e300;
   for (const Eigen::Vector2d& p : poly) {
@@ -475,7 +616,8 @@ FrameTruth SceneGenerator::frameTruth(int i) const {
       const Eigen::Vector3d corners[4] = {{-hw, -hh, 0}, {hw, -hh, 0}, {hw, hh, 0}, {-hw, hh, 0}};
       for (int c = 0; c < 4; ++c) {
         const Eigen::Vector3d q = K * (T_cam_plane[k] * corners[c]);
-        tg.corners[c] = cv::Point2d(q.x() / q.z(), q.y() / q.z());
+        tg.corners[c] =
+            showThroughLens(impl_->K, impl_->canvas, cv::Point2d(q.x() / q.z(), q.y() / q.z()));
       }
       tg.visible_fraction = full_area > 0 ? std::min(1.0, seen_area / full_area) : 0;
       tg.occluded_fraction = occluded;
@@ -484,7 +626,7 @@ FrameTruth SceneGenerator::frameTruth(int i) const {
       FrameTruth::Region r;
       r.id = p.id;
       r.featureless = p.isFlat();
-      r.box_unclipped = boundingBox(full);
+      r.box_unclipped = boundingBox(full, impl_->K, impl_->canvas);
       r.box = r.box_unclipped & image;
       const double a = r.box_unclipped.area();
       r.visible_fraction = a > 0 ? r.box.area() / a : 0;
@@ -508,7 +650,7 @@ FrameTruth SceneGenerator::frameTruth(int i) const {
     an.T_cam_anchor = T_cam_world * T_world_anchor;
     const Eigen::Vector3d p = an.T_cam_anchor.translation();
     const Eigen::Vector3d q = K * p;
-    an.pixel = cv::Point2d(q.x() / q.z(), q.y() / q.z());
+    an.pixel = showThroughLens(impl_->K, impl_->canvas, cv::Point2d(q.x() / q.z(), q.y() / q.z()));
     an.in_view = p.z() > 0 && an.pixel.x >= 0 && an.pixel.x < o.width && an.pixel.y >= 0 &&
                  an.pixel.y < o.height;
     gt.anchors.push_back(an);

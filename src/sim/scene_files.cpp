@@ -82,7 +82,7 @@ bool writeText(const std::string& path, const std::string& text, std::string* er
 bool writeSceneTruth(const SceneGenerator& scene, const std::string& frame_id,
                      const std::string& path, std::string* error) {
   const SceneOptions& o = scene.options();
-  const CameraIntrinsics k = scene.intrinsics();
+  const CameraModel k = scene.intrinsics();
   const Eigen::Quaterniond q = o.q_cam_imu.normalized();
   json j;
   j["preset"] = o.preset;
@@ -92,7 +92,12 @@ bool writeSceneTruth(const SceneGenerator& scene, const std::string& frame_id,
   j["fps"] = o.fps;
   j["start_time"] = o.start_time;
   j["frame_id"] = frame_id;
-  j["intrinsics"] = {{"fx", k.fx}, {"fy", k.fy}, {"cx", k.cx}, {"cy", k.cy}};
+  j["intrinsics"] = {{"fx", k.fx},
+                     {"fy", k.fy},
+                     {"cx", k.cx},
+                     {"cy", k.cy},
+                     {"distortion_model", CameraModel::distortionName(k.distortion)},
+                     {"D", k.D}};
   j["q_cam_imu"] = {q.x(), q.y(), q.z(), q.w()};
   j["frames"] = json::array();
   for (int i = 0; i < scene.frameCount(); ++i) j["frames"].push_back(frameJson(scene.frameTruth(i)));

@@ -371,11 +371,11 @@ class TrackBagRun {
     std::string why;
     const bool have_info = input_.firstCameraInfo(
         [&](const sensor_msgs::CameraInfo& m, std::string* reason) {
-          return imt::fromCameraInfo(m, &k_info_, reason);
+          return imt::fromCameraInfo(m, &k_info_, reason, config_.pipeline.image_rectified);
         },
         &info, &why);
     if (!have_info) {
-      k_info_ = imt::CameraIntrinsics();
+      k_info_ = imt::CameraModel();
       notes_.note(why + "; intrinsics from default_hfov_deg " + hfov() + " deg");
     }
 
@@ -521,7 +521,7 @@ class TrackBagRun {
                   std::to_string(k_info_.height) + "; intrinsics from default_hfov_deg " + hfov() +
                   " deg for it");
     }
-    pipeline_->setIntrinsics(imt::CameraIntrinsics::fromFieldOfView(
+    pipeline_->setIntrinsics(imt::CameraModel::fromFieldOfView(
         size.width, size.height, config_.pipeline.default_hfov_deg));
     intrinsics_source_ = "field_of_view";
   }
@@ -696,7 +696,7 @@ class TrackBagRun {
     d["first_stamp"] = input_.frameStamps().front();
     d["last_stamp"] = input_.frameStamps().back();
     d["stamps_pass_seconds"] = input_.stampsPassSeconds();
-    const imt::CameraIntrinsics& k = pipeline_->intrinsics();
+    const imt::CameraModel& k = pipeline_->intrinsics();
     d["intrinsics"] = {{"source", intrinsics_source_}, {"fx", k.fx}, {"fy", k.fy}, {"cx", k.cx},
                        {"cy", k.cy}, {"width", k.width}, {"height", k.height}};
     d["imu_samples"] = imu_used_;
@@ -731,7 +731,7 @@ class TrackBagRun {
   imt::Config config_;
   imt::InitSpec init_;
   imt::BagInput input_;
-  imt::CameraIntrinsics k_info_;  // from camera_info; valid = false without one
+  imt::CameraModel k_info_;  // from camera_info; valid = false without one
   std::string imu_frame_, tf_why_;
   std::optional<Eigen::Quaterniond> q_cam_imu_;
   // Outputs.

@@ -154,7 +154,7 @@ TEST(AnchorManager, StillCameraGivesTheTapAndTheDepth) {
   EXPECT_NEAR(st[0].pixel.x, 400, 1e-9);
   EXPECT_NEAR(st[0].pixel.y, 300, 1e-9);
   EXPECT_NEAR(st[0].T_cam_anchor.translation().norm(), 2.5, 1e-9);
-  const CameraIntrinsics K = CameraIntrinsics::fromFieldOfView(640, 480, 60.0);
+  const CameraModel K = CameraModel::fromFieldOfView(640, 480, 60.0);
   const Eigen::Vector3d p = st[0].T_cam_anchor.translation();
   EXPECT_NEAR(K.fx * p.x() / p.z() + K.cx, 400, 1e-9);
   // Level IMU with identity R_cam_imu: world z (up) = IMU z = camera z
@@ -265,7 +265,7 @@ void runWalk(WalkFigures* out, OutOfView mode = OutOfView::kVisual) {
   const SceneOptions o = test::preset("floor_walk");
   auto scene = test::make(o);
   ASSERT_TRUE(scene);
-  const CameraIntrinsics K = scene->intrinsics();
+  const CameraModel K = scene->intrinsics();
   RegionManager regions(RegionTrackerOptions(), 10.0);
   AnchorManager anchors(AnchorOptions(), ImuOptions(), 60.0, &regions);
   if (mode == OutOfView::kNoCameraModelNoFallback) regions.setCameraFallback(nullptr);

@@ -32,15 +32,18 @@ Eigen::Matrix3d anchorOrientation(const Eigen::Matrix3d& R_world_cam_at_placemen
 // for the unit ray d through the pixel and the patch's unit normal n (camera
 // frame; image area = f^2 area |n . d| / (range^2 d_z^3)). Without a normal
 // the patch faces the camera (n . d = 1). |n . d| and d_z are floored at 0.1
-// (grazing views, rays near 90 degrees off-axis).
-double patchSizeFactor(const cv::Point2d& pixel, const CameraIntrinsics& k,
+// (grazing views, rays near 90 degrees off-axis). `pixel` is an image pixel:
+// through a distorting lens the ray is its undistorted pixel's, and the
+// factor includes the lens's local magnification there (localScale).
+double patchSizeFactor(const cv::Point2d& pixel, const CameraModel& k,
                        const Eigen::Vector3d* normal_cam = nullptr);
 
 // T_cam_anchor for the anchor seen at `pixel` (our pixel convention) with
 // relative scale `scale_ratio` = width0 / width (> 0), initial distance
-// `depth0` (m, along the pixel's unit ray, as the spec's `depth`), intrinsics `k`.
+// `depth0` (m, along the pixel's unit ray, as the spec's `depth`), camera `k`
+// (the ray goes through k.undistort(pixel): `pixel` is an image pixel).
 Eigen::Isometry3d anchorPose(const cv::Point2d& pixel, double scale_ratio, double depth0,
-                             const CameraIntrinsics& k, const Eigen::Matrix3d& R_world_cam_now,
+                             const CameraModel& k, const Eigen::Matrix3d& R_world_cam_now,
                              const Eigen::Matrix3d& R_world_anchor);
 
 }  // namespace imt

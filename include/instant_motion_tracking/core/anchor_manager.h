@@ -122,10 +122,10 @@ class AnchorManager {
   AnchorManager(const AnchorManager&) = delete;
   AnchorManager& operator=(const AnchorManager&) = delete;
 
-  // Intrinsics of the image (camera_info); used while their size matches the
-  // frames, else a pinhole with default_hfov_deg.
-  void setIntrinsics(const CameraIntrinsics& k) { info_ = k; }
-  CameraIntrinsics intrinsics() const;
+  // The camera model of the images (camera_info's, with its distortion);
+  // intrinsics() is CameraModel::forFrame(it, the frames' size, default_hfov_deg).
+  void setIntrinsics(const CameraModel& k) { info_ = k; }
+  CameraModel intrinsics() const;
 
   // IMU -> camera rotation (from tf2); ignored (false) when the options fix it
   // or when q is not a usable rotation.
@@ -190,7 +190,7 @@ class AnchorManager {
   RegionManager* regions_;
   ImuOrientation imu_;
   bool rotation_fixed_ = false;
-  CameraIntrinsics info_;
+  CameraModel info_;
   std::map<uint32_t, Anchor> anchors_;
   uint32_t next_region_id_ = kAnchorRegionBase;
 };

@@ -31,9 +31,9 @@ struct DebugOverlay {
   std::vector<RegionState> regions;
   std::vector<PlanarTargetState> targets;
   std::vector<AnchorState> anchors;
-  // Projects the 3D axes of targets and anchors; without valid intrinsics
-  // anchors get a marker only and targets their quad only.
-  CameraIntrinsics intrinsics;
+  // Projects the 3D axes of targets and anchors (through its distortion);
+  // without a valid model anchors get a marker only and targets their quad only.
+  CameraModel intrinsics;
 };
 
 // Colours (BGR) of the overlay, by item kind; out-of-view and featureless

@@ -129,6 +129,12 @@ class ImuOrientation {
   // Rotation-only homography mapping pixels at t1 to pixels at t2:
   // H = K R_cam2_cam1 K^-1, H(2,2) = 1 (pure rotation or distant scene).
   bool rotationHomography(const Eigen::Matrix3d& K, double t1, double t2, Eigen::Matrix3d* H) const;
+  // The same between *image* pixels of camera `k`: K R K^-1 holds between
+  // ideal pinhole pixels only; through a distorting lens the motion is
+  // distort(K R K^-1 undistort(p)), which no homography expresses, so this is
+  // the homography that fits it best over the image
+  // (CameraModel::imageHomography). Without distortion exactly the K overload.
+  bool rotationHomography(const CameraModel& k, double t1, double t2, Eigen::Matrix3d* H) const;
   // World +z (up) in the camera frame at t (unit); zero vector when unknown.
   Eigen::Vector3d upInCamera(double t) const;
 

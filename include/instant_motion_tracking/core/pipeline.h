@@ -41,8 +41,8 @@ class Pipeline {
   // holds the whole bag so items given at any frame are tracked both ways.
   explicit Pipeline(const PipelineOptions& options, bool keep_all_motion_data = false);
 
-  void setIntrinsics(const CameraIntrinsics& k) { intrinsics_ = k; }
-  const CameraIntrinsics& intrinsics() const { return intrinsics_; }
+  void setIntrinsics(const CameraModel& k) { intrinsics_ = k; }
+  const CameraModel& intrinsics() const { return intrinsics_; }
   void addImu(const ImuSample& s) { imu_.push_back(s); }
   size_t imuCount() const { return imu_.size(); }
   const std::vector<ImuSample>& imuSamples() const { return imu_; }
@@ -65,7 +65,7 @@ class Pipeline {
 
  private:
   PipelineOptions options_;
-  CameraIntrinsics intrinsics_;
+  CameraModel intrinsics_;
   std::vector<ImuSample> imu_;
   MotionAnalyzer analyzer_;
   RegionManager regions_;

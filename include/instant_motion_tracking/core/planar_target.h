@@ -13,6 +13,12 @@
 // Target frame (interface spec): origin at the target's centre, x along
 // TL->TR, y along TL->BL, z = x cross y. Pixels as in docs/conventions.md.
 //
+// Lens distortion (the CameraModel given to create()): corners in and out
+// are image pixels; the pose is fitted to undistorted feature positions
+// (ideal pinhole pixels), the corners are projected through the lens, and
+// the appearance alignment samples the frame through the lens (the template
+// lives on the undistorted plane, so its homography stays exact).
+//
 // Usage:
 //   std::string err;
 //   auto t = imt::PlanarTargetTracker::create(opt, 1, corners, 0.6, 0.45, K, md_at_init, &err);
@@ -148,7 +154,7 @@ class PlanarTargetTracker {
   // it the appearance is taken from the first frame step() gets an image with.
   static std::unique_ptr<PlanarTargetTracker> create(
       const PlanarTargetOptions& options, uint32_t id, const std::array<cv::Point2d, 4>& corners,
-      double width_m, double height_m, const CameraIntrinsics& k, const MotionData& md,
+      double width_m, double height_m, const CameraModel& k, const MotionData& md,
       std::string* error, const cv::Mat& gray = cv::Mat());
 
   // Moves the target to the frame of `md` (the next frame in either time
@@ -186,7 +192,7 @@ class PlanarTargetTracker {
   void dropDisagreeingPoints(const MotionData& md, bool reanchor);
 
   PlanarTargetOptions options_;
-  CameraIntrinsics k_;
+  CameraModel k_;
   PlanarTargetState state_;
   std::map<uint32_t, Eigen::Vector2d> model_;       // feature id -> (X, Y) on the target plane (m)
   std::map<uint32_t, Eigen::Vector2d> candidates_;  // first observation, awaiting confirmation

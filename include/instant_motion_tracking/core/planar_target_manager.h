@@ -30,7 +30,7 @@ class PlanarTargetManager {
   // Advances every target to the newest frame of `cache`.
   std::vector<PlanarTargetState> update(const MotionCache& cache);
   bool add(uint32_t id, double stamp, const std::array<cv::Point2d, 4>& corners, double width_m,
-           double height_m, const CameraIntrinsics& k, const MotionCache& cache, uint32_t* assigned_id,
+           double height_m, const CameraModel& k, const MotionCache& cache, uint32_t* assigned_id,
            std::string* error);
   bool remove(uint32_t id, std::string* error);
   // The state of target `id` at cached frame `seq`; false for an unknown id

@@ -85,7 +85,7 @@ class MotionAnalysisNodelet : public nodelet::Nodelet {
   ros::WallTimer debug_timer_;
   std::deque<DebugFrame> debug_frames_;
   OverlayHistory overlays_;
-  CameraIntrinsics intrinsics_;
+  CameraModel intrinsics_;
   double last_stamp_ = -1;
   uint64_t frames_ = 0;
   NodeletHealth health_;

@@ -61,12 +61,12 @@ class PlanarTargetNodelet : public nodelet::Nodelet {
              instant_motion_tracking::AddPlanarTarget::Response& res);
   bool removeCb(instant_motion_tracking::RemoveRegion::Request& req,
                 instant_motion_tracking::RemoveRegion::Response& res);
-  CameraIntrinsics intrinsics() const;  // camera_info's, else the field-of-view default
+  CameraModel intrinsics() const;  // camera_info's, else the field-of-view default
 
   Config config_;
   std::unique_ptr<MotionCache> cache_;
   std::unique_ptr<PlanarTargetManager> targets_;
-  CameraIntrinsics info_;
+  CameraModel info_;
   ros::Subscriber motion_sub_, info_sub_;
   ImageInput image_sub_;
   std::map<double, cv::Mat> images_;  // gray frames by stamp, waiting for their motion data

@@ -54,7 +54,7 @@ class RegionTrackerNodelet : public nodelet::Nodelet {
 
   Config config_;
   std::unique_ptr<RegionManager> manager_;
-  CameraIntrinsics intrinsics_;
+  CameraModel intrinsics_;
   std::string frame_id_;
   ros::Subscriber motion_sub_, info_sub_;
   ros::Publisher regions_pub_, markers_pub_;

@@ -156,6 +156,17 @@ struct SceneOptions {
   int width = 640;                  // px
   int height = 480;                 // px
   double hfov_deg = 60.0;           // horizontal field of view (sets fx = fy)
+  // Lens distortion of the camera, as camera_info's distortion_model and D:
+  // "none" | "plumb_bob" (k1 k2 p1 p2 k3) | "rational_polynomial" (k1 k2 p1
+  // p2 k3 k4 k5 k6) | "equidistant" (fisheye: k1 k2 k3 k4); missing
+  // coefficients are 0. With distortion the frames are what that lens sees
+  // (the pinhole view rendered on a canvas covering the lens's field, then
+  // remapped through the lens: bilinear, so edges soften by ~0.5 px), and
+  // every pixel of the truth (target corners, anchor pixels, region boxes) is
+  // an image pixel, where the lens shows the point; intrinsics() carries D.
+  // The lens must be one-to-one over the image (validate() checks).
+  std::string distortion_model = "none";
+  std::vector<double> distortion;
   uint64_t seed = 1;                // every random choice derives from it
   double start_time = 1000.0;       // stamp of the first frame (s)
   // Anti-aliasing. 1: mip-mapped (trilinear) texture + exact edge coverage
@@ -213,14 +224,17 @@ struct FrameTruth {
   Eigen::Isometry3d T_world_cam = Eigen::Isometry3d::Identity();
   double brightness_gain = 1;  // gain applied to the frame
   // Background homography previous -> current frame (H(2,2) = 1); set when
-  // the background is a single plane and this is not the first frame.
+  // the background is a single plane, this is not the first frame and the
+  // lens has no distortion (through one, image motion is no homography).
   std::optional<Eigen::Matrix3d> background_homography;
   struct Region {
     uint32_t id = 0;
     cv::Rect2d box;                // bounding box of the projected plane, clipped to the image
+                                   //   (through a distorting lens: of its sampled edges)
     cv::Rect2d box_unclipped;      // the same before clipping (may lie outside)
     double visible_fraction = 0;   // of the unclipped box area inside the image
     double occluded_fraction = 0;  // of the plane's in-image area hidden by nearer planes
+                                   //   (on the pinhole projection, also with distortion)
     bool featureless = false;
   };
   std::vector<Region> regions;  // one per plane with id != 0 and kind != kTarget
@@ -255,7 +269,7 @@ class SceneGenerator {
   const SceneOptions& options() const { return options_; }
   int frameCount() const;
   double frameStamp(int i) const;  // start_time + i / fps
-  CameraIntrinsics intrinsics() const;
+  CameraModel intrinsics() const;  // the pinhole of hfov_deg plus the lens distortion
   Eigen::Isometry3d T_world_cam(double t) const;                  // t: s from the scene start
   Eigen::Isometry3d T_world_plane(size_t plane, double t) const;  // options().planes[plane]
   double brightnessGain(double t) const;
@@ -270,9 +284,11 @@ class SceneGenerator {
       const;  // imu_rate samples covering the whole scene, in imu frame
 
   // Homography of the background plane from frame `from` to frame `to`
-  // (H(2,2) = 1); nullopt unless the scene has exactly one background plane.
+  // (H(2,2) = 1); nullopt unless the scene has exactly one background plane
+  // and no lens distortion.
   std::optional<Eigen::Matrix3d> backgroundHomography(int from, int to) const;
-  // Pixel of a world point at time t; nullopt when it is not in front of the camera.
+  // Image pixel of a world point at time t (through the lens); nullopt when
+  // it is not in front of the camera.
   std::optional<cv::Point2d> project(const Eigen::Vector3d& p_world, double t) const;
 
   ~SceneGenerator();

@@ -4,7 +4,9 @@
 //
 // Ground-truth JSON layout (one object):
 //   preset, seed, width, height, fps, start_time, frame_id,
-//   intrinsics {fx, fy, cx, cy}          (our pixel convention: docs/conventions.md)
+//   intrinsics {fx, fy, cx, cy,          (our pixel convention: docs/conventions.md)
+//               distortion_model, D}     ("none" and [] without a lens; pixels below are
+//                                         image pixels, through the lens)
 //   q_cam_imu [qx, qy, qz, qw]           (R_cam_imu)
 //   frames [ { index, stamp, T_world_cam {t:[x,y,z], q:[qx,qy,qz,qw]},
 //              background_homography [9] | null   (previous -> current, row-major),

@@ -19,15 +19,9 @@
 namespace imt {
 namespace {
 
-double median(std::vector<double> v) {
-  if (v.empty()) return NAN;
-  std::sort(v.begin(), v.end());
-  return v[v.size() / 2];
-}
+using test::angleDeg;
+using test::median;
 
-double angleDeg(const Eigen::Matrix3d& a, const Eigen::Matrix3d& b) {
-  return Eigen::AngleAxisd(a.transpose() * b).angle() * 180 / M_PI;
-}
 
 // Motion data of a still, featureless 640x480 camera at 30 Hz.
 MotionData still(int k) {

@@ -27,25 +27,13 @@
 namespace imt {
 namespace {
 
-double median(std::vector<double> v) {
-  if (v.empty()) return NAN;
-  std::sort(v.begin(), v.end());
-  return v[v.size() / 2];
-}
+using test::angleDeg;
+using test::cornerRms;
+using test::median;
 
-double angleDeg(const Eigen::Matrix3d& a, const Eigen::Matrix3d& b) {
-  return Eigen::AngleAxisd(a.transpose() * b).angle() * 180 / M_PI;
-}
 
 double rayAngleDeg(const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
   return std::acos(std::clamp(a.normalized().dot(b.normalized()), -1.0, 1.0)) * 180 / M_PI;
-}
-
-// The POT alignment error: RMS of the four corner distances.
-double cornerRms(const std::array<cv::Point2d, 4>& a, const std::array<cv::Point2d, 4>& b) {
-  double sq = 0;
-  for (int c = 0; c < 4; ++c) sq += std::pow(cv::norm(a[c] - b[c]), 2);
-  return std::sqrt(sq / 4);
 }
 
 SceneOptions throughBarrel(SceneOptions o) {

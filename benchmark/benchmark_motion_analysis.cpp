@@ -12,8 +12,8 @@
 // forward and backward so that consecutive frames are always neighbours.
 // BM_ModuleVsBaseline interleaves the two per frame and reports their ratio,
 // which is robust to load from other processes.
-#include "instant_motion_tracking/core/motion_analysis.h"
-#include "instant_motion_tracking/core/scene.h"
+#include "instant_motion_tracking/core/motion/motion_analysis.h"
+#include "instant_motion_tracking/sim/scene.h"
 
 #include <benchmark/benchmark.h>
 #include <opencv2/core/utility.hpp>

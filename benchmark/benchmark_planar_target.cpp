@@ -11,10 +11,10 @@
 //   taskset -c 0 _build/benchmark/benchmark_planar_target
 //
 // OpenCV runs single-threaded here (cv::setNumThreads(1) in main).
-#include "instant_motion_tracking/core/motion_analysis.h"
+#include "instant_motion_tracking/core/motion/motion_analysis.h"
 #include "instant_motion_tracking/core/motion_cache.h"
-#include "instant_motion_tracking/core/planar_target.h"
-#include "instant_motion_tracking/core/scene.h"
+#include "instant_motion_tracking/core/planar/planar_target.h"
+#include "instant_motion_tracking/sim/scene.h"
 
 #include <benchmark/benchmark.h>
 #include <opencv2/core/utility.hpp>
@@ -35,7 +35,7 @@ constexpr double kSeconds = 4.0;  // 120 frames
 struct Sequence {
   std::unique_ptr<imt::MotionCache> cache;
   imt::FrameTruth::Target target;
-  imt::CameraIntrinsics k;
+  imt::CameraModel k;
 };
 
 const Sequence& sequence(int w, int h, bool card) {

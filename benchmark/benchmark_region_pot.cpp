@@ -7,8 +7,8 @@
 // CSRT (opencv_contrib). Single-threaded (cv::setNumThreads(1)).
 //
 //   make -C _build benchmarks && taskset -c 0 _build/benchmark/benchmark_region_pot
-#include "instant_motion_tracking/core/motion_analysis.h"
-#include "instant_motion_tracking/core/region_manager.h"
+#include "instant_motion_tracking/core/motion/motion_analysis.h"
+#include "instant_motion_tracking/core/region/region_manager.h"
 
 #include "../test/box_metrics.h"
 #include "../test/pot210.h"

@@ -6,10 +6,10 @@
 // against the generator's ground truth. Single-threaded (cv::setNumThreads(1)).
 //
 //   make -C _build benchmarks && taskset -c 0 _build/benchmark/benchmark_region_tracking [seconds]
-#include "instant_motion_tracking/core/motion_analysis.h"
+#include "instant_motion_tracking/core/motion/motion_analysis.h"
 #include "../test/box_metrics.h"
-#include "instant_motion_tracking/core/region_manager.h"
-#include "instant_motion_tracking/core/scene.h"
+#include "instant_motion_tracking/core/region/region_manager.h"
+#include "instant_motion_tracking/sim/scene.h"
 
 #include <opencv2/imgproc.hpp>
 #ifdef IMT_HAVE_OPENCV_TRACKING

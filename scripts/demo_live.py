@@ -40,7 +40,7 @@ from evaluate import clip, iou  # noqa: E402  (the offline scorer's box metrics)
 STRIP_FRAMES = 6
 ADD_LAG_S = 0.5           # items are added this far in the past: the trackers catch up
 CARDS_PATCH_ID = 4        # cards preset: the static textured patch ...
-CARDS_PATCH_SIZE = (0.5, 0.4)  # ... and its size (m), as laid out in core/scene_presets.cpp
+CARDS_PATCH_SIZE = (0.5, 0.4)  # ... and its size (m), as laid out in sim/scene_presets.cpp
 ANCHOR_CLEARANCE_PX = 30  # the chosen anchor point stays this far from every card
 
 

@@ -29,15 +29,16 @@ void label(cv::Mat* out, const std::string& text, cv::Point at, const cv::Scalar
 cv::Scalar shade(const cv::Scalar& colour, bool tracked) { return tracked ? colour : colour * 0.5; }
 int width(bool tracked) { return tracked ? 2 : 1; }
 
-// Projects p (camera optical frame, m) with k; false behind the camera.
-bool project(const CameraIntrinsics& k, const Eigen::Vector3d& p, cv::Point2d* uv) {
+// Projects p (camera optical frame, m) through k, lens distortion included
+// (an image pixel); false behind the camera.
+bool project(const CameraModel& k, const Eigen::Vector3d& p, cv::Point2d* uv) {
   if (!(p.z() > 1e-6) || !p.allFinite()) return false;
-  *uv = cv::Point2d(k.fx * p.x() / p.z() + k.cx, k.fy * p.y() / p.z() + k.cy);
+  *uv = k.distort(cv::Point2d(k.fx * p.x() / p.z() + k.cx, k.fy * p.y() / p.z() + k.cy));
   return std::isfinite(uv->x) && std::isfinite(uv->y);
 }
 
 // The x (red), y (green), z (blue) axes of T, `length` m long.
-void drawAxes(cv::Mat* out, const CameraIntrinsics& k, const Eigen::Isometry3d& T, double length) {
+void drawAxes(cv::Mat* out, const CameraModel& k, const Eigen::Isometry3d& T, double length) {
   if (!k.valid || !(length > 0) || !T.matrix().allFinite()) return;
   cv::Point2d o;
   if (!project(k, T.translation(), &o)) return;
@@ -63,7 +64,7 @@ void drawRegion(cv::Mat* out, const RegionState& s) {
         shade(kRegionColour, tracked));
 }
 
-void drawTarget(cv::Mat* out, const PlanarTargetState& s, const CameraIntrinsics& k) {
+void drawTarget(cv::Mat* out, const PlanarTargetState& s, const CameraModel& k) {
   if (s.status == TargetStatus::kLost) return;
   for (const cv::Point2d& c : s.corners)
     if (!std::isfinite(c.x) || !std::isfinite(c.y)) return;
@@ -80,7 +81,7 @@ void drawTarget(cv::Mat* out, const PlanarTargetState& s, const CameraIntrinsics
   label(out, text, quad[3] + cv::Point(0, 16), colour);  // below BL: region labels sit above boxes
 }
 
-void drawAnchor(cv::Mat* out, const AnchorState& s, const CameraIntrinsics& k) {
+void drawAnchor(cv::Mat* out, const AnchorState& s, const CameraModel& k) {
   if (s.status == AnchorStatus::kLost || !std::isfinite(s.pixel.x) || !std::isfinite(s.pixel.y))
     return;
   const bool tracked = s.status == AnchorStatus::kTracked;

@@ -1,6 +1,6 @@
 #include "instant_motion_tracking/core/options.h"
 
-#include "instant_motion_tracking/core/option_checker.h"
+#include "option_checker.h"
 
 #include <cmath>
 #include <sstream>

@@ -30,21 +30,20 @@ TrackingSession::TrackingSession(const PipelineOptions& options, Mode mode)
   if (options.anchors.rotationCamImu(&q) && anchors_->rotationFromOptions()) q_cam_imu_ = q;
 }
 
-void TrackingSession::setCameraInfo(const CameraIntrinsics& info) {
+void TrackingSession::setCameraInfo(const CameraModel& info) {
   info_ = info;
   anchors_->setIntrinsics(info);
 }
 
-CameraIntrinsics TrackingSession::camera() const {
+CameraModel TrackingSession::camera() const {
   const cv::Size size = regions_.cache().imageSize();
-  if (info_.valid && info_.width == size.width && info_.height == size.height) return info_;
-  return CameraIntrinsics::fromFieldOfView(size.width, size.height, options_.default_hfov_deg);
+  return CameraModel::forFrame(info_, size.width, size.height, options_.default_hfov_deg);
 }
 
 const char* TrackingSession::cameraSource() const {
-  const cv::Size size = regions_.cache().imageSize();
-  if (size.width <= 0) return "none";
-  return info_.valid && info_.width == size.width && info_.height == size.height ? "camera_info" : "field_of_view";
+  if (regions_.cache().imageSize().width <= 0) return "none";
+  const CameraModel k = camera();  // the one rule decides; this only tells which way it went
+  return info_.valid && k.K() == info_.K() && k.D == info_.D ? "camera_info" : "field_of_view";
 }
 
 bool TrackingSession::setRotationCamImu(const Eigen::Quaterniond& q_cam_imu) {

@@ -71,9 +71,9 @@ std::string SessionNodelet::retryHint() {
 }
 
 void SessionNodelet::infoCb(const sensor_msgs::CameraInfoConstPtr& msg) {
-  CameraIntrinsics k;
+  CameraModel k;
   std::string why;
-  if (fromCameraInfo(*msg, &k, &why)) {
+  if (fromCameraInfo(*msg, &k, &why, config_.pipeline.image_rectified)) {
     session([&](TrackingSession& s) { s.setCameraInfo(k); });
   } else {
     NODELET_WARN_THROTTLE(10.0, "ignoring camera_info: %s", why.c_str());

@@ -1,5 +1,6 @@
 #include "instant_motion_tracking/ros/conversions.h"
 
+#include <algorithm>
 #include <cmath>
 #include <initializer_list>
 #include <string>
@@ -105,36 +106,68 @@ MotionData fromMsg(const instant_motion_tracking::MotionData& m) {
   return md;
 }
 
-bool fromCameraInfo(const sensor_msgs::CameraInfo& info, CameraIntrinsics* k, std::string* why) {
-  const double fx = info.K[0], fy = info.K[4], cx = info.K[2], cy = info.K[5];
+bool fromCameraInfo(const sensor_msgs::CameraInfo& info, CameraModel* k, std::string* why,
+                    bool image_rectified) {
+  // A rectified image is seen through P (its own pinhole, no distortion);
+  // a raw one through K and D.
+  const double fx = image_rectified ? info.P[0] : info.K[0];
+  const double fy = image_rectified ? info.P[5] : info.K[4];
+  const double cx = image_rectified ? info.P[2] : info.K[2];
+  const double cy = image_rectified ? info.P[6] : info.K[5];
+  const char* which = image_rectified ? "P" : "K";
   if (!(std::isfinite(fx) && std::isfinite(fy) && std::isfinite(cx) && std::isfinite(cy)) ||
       fx <= 0 || fy <= 0) {
-    *why = "camera_info K has no usable focal length";
+    *why = std::string("camera_info ") + which + " has no usable focal length" +
+           (image_rectified ? " (image_rectified: true uses P)" : "");
     return false;
   }
   if (info.width == 0 || info.height == 0) {
     *why = "camera_info has no image size";
     return false;
   }
-  k->fx = fx;
-  k->fy = fy;
-  k->cx = cx + 0.5;  // OpenCV/ROS pixel centres at integers -> ours at +0.5
-  k->cy = cy + 0.5;
-  k->width = static_cast<int>(info.width);
-  k->height = static_cast<int>(info.height);
-  k->valid = true;
+  CameraModel m;
+  m.fx = fx;
+  m.fy = fy;
+  m.cx = cx + 0.5;  // OpenCV/ROS pixel centres at integers -> ours at +0.5
+  m.cy = cy + 0.5;
+  m.width = static_cast<int>(info.width);
+  m.height = static_cast<int>(info.height);
+  m.valid = true;
+  const bool all_zero =
+      std::all_of(info.D.begin(), info.D.end(), [](double c) { return c == 0.0; });
+  if (!image_rectified && !all_zero) {  // all-zero (or empty) D: no distortion, whatever the name
+    CameraModel::Distortion d;
+    if (!CameraModel::parseDistortion(info.distortion_model, &d) ||
+        d == CameraModel::Distortion::kNone) {
+      *why = "camera_info distortion_model '" + info.distortion_model +
+             "' is not supported (plumb_bob, rational_polynomial, equidistant) and D is not zero";
+      return false;
+    }
+    std::string e;
+    if (!m.setDistortion(d, info.D, &e)) {
+      *why = "camera_info D: " + e;
+      return false;
+    }
+  }
+  *k = m;
   return true;
 }
 
-sensor_msgs::CameraInfo toCameraInfo(const CameraIntrinsics& k, const std_msgs::Header& header) {
+sensor_msgs::CameraInfo toCameraInfo(const CameraModel& k, const std_msgs::Header& header) {
   sensor_msgs::CameraInfo info;
   info.header = header;
   info.width = k.width;
   info.height = k.height;
-  info.distortion_model = "plumb_bob";
-  info.D.assign(5, 0.0);
+  if (k.distortion == CameraModel::Distortion::kNone) {
+    info.distortion_model = "plumb_bob";
+    info.D.assign(5, 0.0);
+  } else {
+    info.distortion_model = CameraModel::distortionName(k.distortion);
+    info.D = k.D;
+  }
   info.K = {k.fx, 0, k.cx - 0.5, 0, k.fy, k.cy - 0.5, 0, 0, 1};
   info.R = {1, 0, 0, 0, 1, 0, 0, 0, 1};
+  // P: the rectified image's pinhole, here the same K.
   info.P = {k.fx, 0, k.cx - 0.5, 0, 0, k.fy, k.cy - 0.5, 0, 0, 0, 1, 0};
   return info;
 }

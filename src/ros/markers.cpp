@@ -3,10 +3,12 @@
 namespace imt {
 namespace {
 
-geometry_msgs::Point backProject(double u, double v, const CameraIntrinsics& k) {
+// The image pixel (u, v)'s ray (through the lens: undistorted) on the plane z = 1 m.
+geometry_msgs::Point backProject(double u, double v, const CameraModel& k) {
+  const cv::Point2d ideal = k.undistort(cv::Point2d(u, v));
   geometry_msgs::Point p;
-  p.x = (u - k.cx) / k.fx;  // on the plane z = 1 m
-  p.y = (v - k.cy) / k.fy;
+  p.x = (ideal.x - k.cx) / k.fx;
+  p.y = (ideal.y - k.cy) / k.fy;
   p.z = 1.0;
   return p;
 }
@@ -27,7 +29,7 @@ std_msgs::ColorRGBA colour(RegionStatus s) {
 
 visualization_msgs::MarkerArray regionMarkers(const std::vector<RegionState>& states,
                                               const std_msgs::Header& header,
-                                              const CameraIntrinsics& k) {
+                                              const CameraModel& k) {
   visualization_msgs::MarkerArray out;
   for (const RegionState& s : states) {
     if (s.status == RegionStatus::kLost || !k.valid) continue;

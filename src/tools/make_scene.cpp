@@ -1,12 +1,12 @@
-// make_scene: renders a seeded synthetic scene (core/scene.h) into a rosbag
+// make_scene: renders a seeded synthetic scene (sim/scene.h) into a rosbag
 // with camera images, camera_info, an IMU stream and /tf_static, plus its
 // ground truth as JSON and, optionally, an INIT.yaml for track_bag.
 //
 //   rosrun instant_motion_tracking make_scene --preset cards --out cards.bag \
 //       [--truth cards.json] [--init cards_init.yaml] [--duration 10] [--seed 1] ...
 // Run with --help for every option.
-#include "instant_motion_tracking/core/scene.h"
-#include "instant_motion_tracking/io/scene_files.h"
+#include "instant_motion_tracking/sim/scene.h"
+#include "instant_motion_tracking/sim/scene_files.h"
 #include "instant_motion_tracking/ros/conversions.h"
 
 #include <cv_bridge/cv_bridge.h>
@@ -23,6 +23,7 @@
 #include <future>
 #include <iostream>
 #include <map>
+#include <sstream>
 #include <string>
 #include <unistd.h>
 
@@ -44,6 +45,8 @@ Renders a seeded synthetic scene into a rosbag (images, camera_info, IMU, /tf_st
   --noise SIGMA        sensor noise, grey levels
   --exposure S         motion blur exposure time (0 = off)
   --supersample N      anti-aliasing samples per pixel side
+  --distortion M:K1,.. lens distortion (camera_info's model and D), e.g. plumb_bob:-0.28,0.07
+                       (models plumb_bob, rational_polynomial, equidistant; default none)
   --texture FILE       texture image (repeatable; default procedural)
   --encoding E         mono8 (default), mono16, bgr8, rgb8, bgra8, rgba8
   --compressed FMT     write sensor_msgs/CompressedImage (png or jpeg) instead of raw
@@ -104,6 +107,7 @@ int main(int argc, char** argv) {
       {"--fps", true},         {"--width", true},       {"--height", true},
       {"--seed", true},        {"--start-time", true},  {"--noise", true},
       {"--exposure", true},    {"--supersample", true}, {"--texture", true},
+      {"--distortion", true},
       {"--encoding", true},    {"--compressed", true},  {"--no-imu", false},
       {"--image-topic", true}, {"--imu-topic", true},   {"--frame-id", true},
       {"--imu-frame-id", true}, {"--quiet", false},     {"--help", false},
@@ -150,6 +154,17 @@ int main(int argc, char** argv) {
   if (args.count("--noise")) opt.noise_sigma = toDouble("--noise", args["--noise"]);
   if (args.count("--exposure")) opt.exposure = toDouble("--exposure", args["--exposure"]);
   if (args.count("--supersample")) opt.supersample = toInt("--supersample", args["--supersample"]);
+  if (args.count("--distortion")) {
+    const std::string& v = args["--distortion"];
+    const size_t colon = v.find(':');
+    opt.distortion_model = v.substr(0, colon);
+    opt.distortion.clear();
+    if (colon != std::string::npos) {
+      std::stringstream in(v.substr(colon + 1));
+      std::string item;
+      while (std::getline(in, item, ',')) opt.distortion.push_back(toDouble("--distortion", item));
+    }
+  }
   if (!textures.empty()) opt.texture_files = textures;
 
   const std::string encoding = args.count("--encoding") ? args["--encoding"] : "mono8";

@@ -3,11 +3,11 @@
 // floor, walking, pitching and rolling, yawing away from the anchor for ~2 s
 // and back; IMU frame rotated relative to the camera): real motion analysis,
 // region tracking of a box around the tapped pixel, gyro orientation.
-#include "instant_motion_tracking/core/anchor.h"
-#include "instant_motion_tracking/core/imu_orientation.h"
-#include "instant_motion_tracking/core/motion_analysis.h"
-#include "instant_motion_tracking/core/region_manager.h"
-#include "instant_motion_tracking/core/scene.h"
+#include "instant_motion_tracking/core/anchor/anchor.h"
+#include "instant_motion_tracking/core/anchor/imu_orientation.h"
+#include "instant_motion_tracking/core/motion/motion_analysis.h"
+#include "instant_motion_tracking/core/region/region_manager.h"
+#include "instant_motion_tracking/sim/scene.h"
 
 #include <gtest/gtest.h>
 #include <opencv2/imgproc.hpp>
@@ -69,7 +69,7 @@ TEST(Anchor, PoseFromExactInputsMatchesTheScene) {
 // image area times its range / f equals factor * side for any pixel, range
 // and normal (up to the patch's finite size: 1 mm at >= 1 m, so 1e-3 relative).
 TEST(Anchor, PatchSizeFactorIsTheProjectedSizeTimesRange) {
-  CameraIntrinsics K = CameraIntrinsics::fromFieldOfView(640, 480, 70.0);
+  CameraModel K = CameraModel::fromFieldOfView(640, 480, 70.0);
   const double side = 1e-3;
   for (const cv::Point2d px : {cv::Point2d(320, 240), cv::Point2d(600, 60), cv::Point2d(30, 400)}) {
     for (const double range : {1.0, 4.0}) {

@@ -1,11 +1,11 @@
 // AnchorManager: requests (good and bad), the IMU's timing (waiting for it,
 // missing, restarting), resets, and end to end on the rendered `floor_walk`
 // scene against its ground truth, fed frame by frame as the nodelet is.
-#include "instant_motion_tracking/core/anchor.h"
-#include "instant_motion_tracking/core/anchor_manager.h"
-#include "instant_motion_tracking/core/motion_analysis.h"
+#include "instant_motion_tracking/core/anchor/anchor.h"
+#include "instant_motion_tracking/core/anchor/anchor_manager.h"
+#include "instant_motion_tracking/core/motion/motion_analysis.h"
 #include "instant_motion_tracking/core/options.h"
-#include "instant_motion_tracking/core/scene.h"
+#include "instant_motion_tracking/sim/scene.h"
 
 #include "scene_test_util.h"
 
@@ -19,15 +19,9 @@
 namespace imt {
 namespace {
 
-double median(std::vector<double> v) {
-  if (v.empty()) return NAN;
-  std::sort(v.begin(), v.end());
-  return v[v.size() / 2];
-}
+using test::angleDeg;
+using test::median;
 
-double angleDeg(const Eigen::Matrix3d& a, const Eigen::Matrix3d& b) {
-  return Eigen::AngleAxisd(a.transpose() * b).angle() * 180 / M_PI;
-}
 
 // Motion data of a still, featureless 640x480 camera at 30 Hz.
 MotionData still(int k) {
@@ -154,7 +148,7 @@ TEST(AnchorManager, StillCameraGivesTheTapAndTheDepth) {
   EXPECT_NEAR(st[0].pixel.x, 400, 1e-9);
   EXPECT_NEAR(st[0].pixel.y, 300, 1e-9);
   EXPECT_NEAR(st[0].T_cam_anchor.translation().norm(), 2.5, 1e-9);
-  const CameraIntrinsics K = CameraIntrinsics::fromFieldOfView(640, 480, 60.0);
+  const CameraModel K = CameraModel::fromFieldOfView(640, 480, 60.0);
   const Eigen::Vector3d p = st[0].T_cam_anchor.translation();
   EXPECT_NEAR(K.fx * p.x() / p.z() + K.cx, 400, 1e-9);
   // Level IMU with identity R_cam_imu: world z (up) = IMU z = camera z
@@ -265,7 +259,7 @@ void runWalk(WalkFigures* out, OutOfView mode = OutOfView::kVisual) {
   const SceneOptions o = test::preset("floor_walk");
   auto scene = test::make(o);
   ASSERT_TRUE(scene);
-  const CameraIntrinsics K = scene->intrinsics();
+  const CameraModel K = scene->intrinsics();
   RegionManager regions(RegionTrackerOptions(), 10.0);
   AnchorManager anchors(AnchorOptions(), ImuOptions(), 60.0, &regions);
   if (mode == OutOfView::kNoCameraModelNoFallback) regions.setCameraFallback(nullptr);

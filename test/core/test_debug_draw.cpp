@@ -101,8 +101,8 @@ TEST(DebugDraw, LostItemsAreNotDrawnAndOthersAreDimmed) {
 
 TEST(DebugDraw, PlanarQuadAndAnchorWithAxes) {
   DebugOverlay o;
-  o.intrinsics = CameraIntrinsics::fromFieldOfView(kW, kH, 60.0);
-  const CameraIntrinsics& k = o.intrinsics;
+  o.intrinsics = CameraModel::fromFieldOfView(kW, kH, 60.0);
+  const CameraModel& k = o.intrinsics;
   PlanarTargetState t;
   t.id = 7;
   t.status = TargetStatus::kTracked;

@@ -1,7 +1,7 @@
 // Tests of ImuOrientation (issue 6: the IMU side of the calibration-free
 // anchors) on generator IMU streams with exact truth and on real EuRoC data.
-#include "instant_motion_tracking/core/imu_orientation.h"
-#include "instant_motion_tracking/core/scene.h"
+#include "instant_motion_tracking/core/anchor/imu_orientation.h"
+#include "instant_motion_tracking/sim/scene.h"
 
 #include "shared_data.h"
 

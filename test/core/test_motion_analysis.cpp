@@ -1,7 +1,7 @@
 // Motion analysis against the scene generator's ground truth: camera-motion
 // transfer error, model class, foreground/background classification.
-#include "instant_motion_tracking/core/motion_analysis.h"
-#include "instant_motion_tracking/core/scene.h"
+#include "instant_motion_tracking/core/motion/motion_analysis.h"
+#include "instant_motion_tracking/sim/scene.h"
 
 #include <gtest/gtest.h>
 #include <opencv2/imgproc.hpp>

@@ -1,7 +1,7 @@
 // CameraMotionEstimator on synthetic correspondences with exact ground truth:
 // which model class the data supports, why higher ones are rejected, accuracy
 // under noise and outliers, and the temporal prior.
-#include "instant_motion_tracking/core/camera_motion_estimator.h"
+#include "instant_motion_tracking/core/motion/camera_motion_estimator.h"
 
 #include <gtest/gtest.h>
 #include <opencv2/core.hpp>

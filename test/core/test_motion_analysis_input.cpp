@@ -1,8 +1,8 @@
 // MotionAnalyzer on bad and odd input (never throws, resets with a reason),
 // MotionData invariants (first frame, IDs, ages, motion vectors), the pixel
 // convention, and the FeatureTracker's grid spread and ID bookkeeping.
-#include "instant_motion_tracking/core/feature_tracker.h"
-#include "instant_motion_tracking/core/motion_analysis.h"
+#include "instant_motion_tracking/core/motion/feature_tracker.h"
+#include "instant_motion_tracking/core/motion/motion_analysis.h"
 #include "test_motion_analysis_synthetic.h"
 
 #include <gtest/gtest.h>

@@ -5,7 +5,7 @@
 // README measures the global shift against frame 0 below 0.5 px throughout.
 // So the camera motion must stay near identity and the hand must come out as
 // foreground, not as camera motion.
-#include "instant_motion_tracking/core/motion_analysis.h"
+#include "instant_motion_tracking/core/motion/motion_analysis.h"
 
 #include "shared_data.h"
 

@@ -6,8 +6,8 @@
 // assumption, the corners are what POT scores). Score: precision at 5 px of
 // the alignment error (RMS of the four corner distances) on the annotated,
 // unflagged frames, as the POT evaluation does.
-#include "instant_motion_tracking/core/motion_analysis.h"
-#include "instant_motion_tracking/core/planar_target_manager.h"
+#include "instant_motion_tracking/core/motion/motion_analysis.h"
+#include "instant_motion_tracking/core/planar/planar_target_manager.h"
 
 #include "../pot210.h"
 #include "shared_data.h"
@@ -33,7 +33,7 @@ constexpr double kFieldOfViewDeg = 60.0;
 // unit square to the quad is K [w r1, h r2, t] up to scale, so the column
 // norms of K^-1 H give the aspect ratio. The user gives the physical size;
 // POT does not, and this is what it implies under the assumed K.
-double rectifiedAspect(const std::array<cv::Point2d, 4>& c, const CameraIntrinsics& k) {
+double rectifiedAspect(const std::array<cv::Point2d, 4>& c, const CameraModel& k) {
   const std::vector<cv::Point2d> square = {{0, 0}, {1, 0}, {1, 1}, {0, 1}};
   const cv::Mat H = cv::findHomography(square, std::vector<cv::Point2d>(c.begin(), c.end()));
   if (H.empty()) return 0;
@@ -82,8 +82,8 @@ PotResult runPot(const std::string& seq, int frames, const std::string& model) {
     const std::clock_t cpu1 = std::clock();
     std::vector<PlanarTargetState> states;
     if (f == 1) {
-      const CameraIntrinsics k =
-          CameraIntrinsics::fromFieldOfView(gray.cols, gray.rows, kFieldOfViewDeg);
+      const CameraModel k =
+          CameraModel::fromFieldOfView(gray.cols, gray.rows, kFieldOfViewDeg);
       const double aspect = rectifiedAspect(c0, k);
       EXPECT_GT(aspect, 0);
       EXPECT_TRUE(targets.add(0, 0, c0, 1.0, aspect, k, cache, &id, &err)) << err;

@@ -4,9 +4,11 @@
 // motion analysis, then the planar target manager, scored against the
 // generator's corners and pose (the POT alignment error: RMS of the four
 // corner distances).
-#include "instant_motion_tracking/core/motion_analysis.h"
-#include "instant_motion_tracking/core/planar_target_manager.h"
-#include "instant_motion_tracking/core/scene.h"
+#include "instant_motion_tracking/core/motion/motion_analysis.h"
+#include "instant_motion_tracking/core/planar/planar_target_manager.h"
+#include "instant_motion_tracking/sim/scene.h"
+
+#include "scene_test_util.h"
 
 #include <gtest/gtest.h>
 
@@ -19,17 +21,9 @@
 namespace imt {
 namespace {
 
-double percentile(std::vector<double> v, double p) {
-  std::sort(v.begin(), v.end());
-  return v[static_cast<size_t>(p * (v.size() - 1))];
-}
+using test::cornerRms;
+using test::percentile;
 
-// The POT alignment error: RMS of the four corner distances.
-double cornerRms(const std::array<cv::Point2d, 4>& a, const std::array<cv::Point2d, 4>& b) {
-  double sq = 0;
-  for (int c = 0; c < 4; ++c) sq += std::pow(cv::norm(a[c] - b[c]), 2);
-  return std::sqrt(sq / 4);
-}
 
 // Renders `scene` frame by frame through the motion analysis into a cache
 // (frames kept for the appearance alignment), gives its target at frame

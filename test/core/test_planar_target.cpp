@@ -2,12 +2,12 @@
 // poster on a textured wall seen by an orbiting, rolling camera that moves in
 // by x2, features with persistent IDs and 0.15 px noise, an occluder sweeping
 // across. Only feature IDs and positions reach the tracker.
-#include "instant_motion_tracking/core/planar_target.h"
-#include "instant_motion_tracking/core/planar_target_manager.h"
-#include "instant_motion_tracking/core/scene.h"
+#include "instant_motion_tracking/core/planar/planar_target.h"
+#include "instant_motion_tracking/core/planar/planar_target_manager.h"
+#include "instant_motion_tracking/sim/scene.h"
 
 // Internal to the core library (the re-acquisition search), tested directly.
-#include "../../src/core/planar_appearance.h"
+#include "../../src/core/planar/planar_appearance.h"
 
 #include <gtest/gtest.h>
 #include <opencv2/imgproc.hpp>
@@ -23,7 +23,7 @@ namespace {
 const int kW = 640, kH = 480;
 const double kTw = 0.6, kTh = 0.45;  // poster size (m)
 
-CameraIntrinsics intrinsics() { return CameraIntrinsics::fromFieldOfView(kW, kH, 60.0); }
+CameraModel intrinsics() { return CameraModel::fromFieldOfView(kW, kH, 60.0); }
 
 // Camera pose in the target frame at frame k of n: distance 1.6 m -> 0.8 m,
 // yaw up to 45 degrees, pitch 20 degrees, roll up to 30 degrees.
@@ -54,7 +54,7 @@ struct Scene {
   std::vector<Eigen::Isometry3d> T_cam_target;
 };
 
-Eigen::Vector2d project(const CameraIntrinsics& k, const Eigen::Vector3d& p) {
+Eigen::Vector2d project(const CameraModel& k, const Eigen::Vector3d& p) {
   return {k.fx * p.x() / p.z() + k.cx, k.fy * p.y() / p.z() + k.cy};
 }
 
@@ -80,7 +80,7 @@ Scene makeScene(int n, bool occluder, uint32_t seed = 3) {
       sc.kind.push_back(2);
     }
   }
-  const CameraIntrinsics K = intrinsics();
+  const CameraModel K = intrinsics();
   std::normal_distribution<double> noise(0, 0.15);
   std::vector<uint32_t> ids(sc.points.size(), 0);
   std::vector<uint16_t> age(sc.points.size(), 0);

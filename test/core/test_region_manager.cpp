@@ -1,6 +1,6 @@
 // RegionManager: many regions over the motion-data cache, added in the past,
 // tracked backwards and forwards, seeked; bad requests named.
-#include "instant_motion_tracking/core/region_manager.h"
+#include "instant_motion_tracking/core/region/region_manager.h"
 
 #include "synthetic_motion.h"
 

@@ -5,8 +5,8 @@
 // annotated, unflagged frame. V25_2 turns the target in the image plane (an
 // axis-aligned box of a turning quad is a loose fit for any box tracker);
 // V24_7 moves freely, with a card covering most of the target and blur.
-#include "instant_motion_tracking/core/motion_analysis.h"
-#include "instant_motion_tracking/core/region_manager.h"
+#include "instant_motion_tracking/core/motion/motion_analysis.h"
+#include "instant_motion_tracking/core/region/region_manager.h"
 
 #include "../box_metrics.h"
 #include "../pot210.h"

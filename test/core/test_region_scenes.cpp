@@ -2,10 +2,10 @@
 // `cards` preset (textured wall, moving cards, an occlusion, a static and a
 // featureless wall patch, camera pan/roll/zoom), the real motion analysis,
 // then the region manager. Scored by IoU against the generator's boxes.
-#include "instant_motion_tracking/core/motion_analysis.h"
+#include "instant_motion_tracking/core/motion/motion_analysis.h"
 #include "../box_metrics.h"
-#include "instant_motion_tracking/core/region_manager.h"
-#include "instant_motion_tracking/core/scene.h"
+#include "instant_motion_tracking/core/region/region_manager.h"
+#include "instant_motion_tracking/sim/scene.h"
 
 #include <gtest/gtest.h>
 

@@ -3,7 +3,7 @@
 // their own motion in front of it, features with persistent IDs that vanish
 // when they leave the image or are covered. No pixels are involved: the
 // tracker only ever sees motion data.
-#include "instant_motion_tracking/core/region_tracker.h"
+#include "instant_motion_tracking/core/region/region_tracker.h"
 
 #include "synthetic_motion.h"
 

@@ -1,6 +1,6 @@
 // Tests of the scene generator's images: determinism, thread safety, noise,
 // brightness, motion blur and textures.
-#include "instant_motion_tracking/core/scene.h"
+#include "instant_motion_tracking/sim/scene.h"
 
 #include "scene_test_util.h"
 

@@ -1,5 +1,5 @@
 // Tests of the scene generator's IMU stream against its trajectory.
-#include "instant_motion_tracking/core/scene.h"
+#include "instant_motion_tracking/sim/scene.h"
 
 #include "scene_test_util.h"
 

@@ -71,6 +71,16 @@ TEST(Config, OverridesAndKeepsTheRest) {
   EXPECT_EQ(c.pipeline.motion_analysis.grid_cols, MotionAnalysisOptions().grid_cols);
 }
 
+TEST(Config, ImageRectifiedDefaultsToRawImages) {
+  Config c;
+  EXPECT_FALSE(c.pipeline.image_rectified) << "camera_info's K and D unless told otherwise";
+  std::string err;
+  ASSERT_TRUE(loadConfigYaml("image_rectified: true\n", "t", &c, &err)) << err;
+  EXPECT_TRUE(c.pipeline.image_rectified);
+  EXPECT_FALSE(loadConfigYaml("image_rectified: 3\n", "t", &c, &err));
+  EXPECT_NE(err.find("image_rectified"), std::string::npos) << err;
+}
+
 struct BadCase {
   const char* yaml;
   const char* expected;  // substring of the message

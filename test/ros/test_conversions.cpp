@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <vector>
 
 namespace imt {
 namespace {
@@ -67,19 +68,88 @@ TEST(Conversions, MalformedMotionDataIsSanitised) {
 }
 
 TEST(Conversions, CameraInfoShiftsThePrincipalPointByHalfAPixel) {
-  CameraIntrinsics k = CameraIntrinsics::fromFieldOfView(640, 480, 60.0);
+  CameraModel k = CameraModel::fromFieldOfView(640, 480, 60.0);
   std_msgs::Header h;
   const sensor_msgs::CameraInfo info = toCameraInfo(k, h);
   EXPECT_DOUBLE_EQ(info.K[2], 319.5);  // OpenCV convention: centre of a 640 px row
-  CameraIntrinsics back;
+  CameraModel back;
   std::string why;
-  ASSERT_TRUE(fromCameraInfo(info, &back, &why)) << why;
+  ASSERT_TRUE(fromCameraInfo(info, &back, &why, false)) << why;
   EXPECT_DOUBLE_EQ(back.cx, 320.0);
   EXPECT_DOUBLE_EQ(back.fx, k.fx);
+  EXPECT_FALSE(back.hasDistortion()) << "plumb_bob with a zero D";
   sensor_msgs::CameraInfo bad = info;
   bad.K[0] = 0;
-  EXPECT_FALSE(fromCameraInfo(bad, &back, &why));
+  EXPECT_FALSE(fromCameraInfo(bad, &back, &why, false));
   EXPECT_NE(why.find("focal"), std::string::npos);
+}
+
+// A calibrated camera's camera_info: K with D under each supported model; P
+// (a different pinhole, as image_proc's rectification chooses) is used
+// instead, and D ignored, when the images are already rectified.
+TEST(Conversions, CameraInfoReadsTheDistortionOrPForRectifiedImages) {
+  sensor_msgs::CameraInfo info;
+  info.width = 640;
+  info.height = 480;
+  info.K = {550, 0, 321.5, 0, 552, 243.5, 0, 0, 1};
+  info.P = {500, 0, 318.5, 0, 0, 501, 240.5, 0, 0, 0, 1, 0};
+  struct Case {
+    const char* model;
+    std::vector<double> D;
+    CameraModel::Distortion expected;
+  };
+  for (const Case& c : {Case{"plumb_bob", {-0.28, 0.07, 0.001, -0.0005, 0.0}, CameraModel::Distortion::kPlumbBob},
+                        Case{"rational_polynomial", {0.6, -0.05, 0.0005, 0.0008, 0, 0.9, 0.05, 0},
+                             CameraModel::Distortion::kRationalPolynomial},
+                        Case{"equidistant", {-0.05, 0.01, -0.003, 0.0005}, CameraModel::Distortion::kEquidistant}}) {
+    info.distortion_model = c.model;
+    info.D = c.D;
+    CameraModel k;
+    std::string why;
+    ASSERT_TRUE(fromCameraInfo(info, &k, &why, false)) << c.model << ": " << why;
+    EXPECT_EQ(k.distortion, c.expected) << c.model;
+    EXPECT_EQ(k.D, c.D) << c.model;
+    EXPECT_TRUE(k.hasDistortion()) << c.model;
+    EXPECT_DOUBLE_EQ(k.fx, 550);
+    EXPECT_DOUBLE_EQ(k.cy, 244.0);
+    // The way back keeps the model and the coefficients.
+    const sensor_msgs::CameraInfo again = toCameraInfo(k, std_msgs::Header());
+    EXPECT_EQ(again.distortion_model, c.model);
+    EXPECT_EQ(again.D, c.D);
+    // Rectified input: P's pinhole, no distortion.
+    ASSERT_TRUE(fromCameraInfo(info, &k, &why, true)) << why;
+    EXPECT_DOUBLE_EQ(k.fx, 500);
+    EXPECT_DOUBLE_EQ(k.fy, 501);
+    EXPECT_DOUBLE_EQ(k.cx, 319.0);
+    EXPECT_DOUBLE_EQ(k.cy, 241.0);
+    EXPECT_FALSE(k.hasDistortion()) << c.model;
+  }
+  // An unknown model with a non-zero D is refused (the caller warns and falls back)...
+  info.distortion_model = "fov";
+  info.D = {0.9};
+  CameraModel k;
+  std::string why;
+  EXPECT_FALSE(fromCameraInfo(info, &k, &why, false));
+  EXPECT_NE(why.find("'fov' is not supported"), std::string::npos) << why;
+  // ...but not for rectified images (D ignored), nor with an all-zero or empty D.
+  EXPECT_TRUE(fromCameraInfo(info, &k, &why, true)) << why;
+  info.D = {0, 0, 0, 0, 0};
+  EXPECT_TRUE(fromCameraInfo(info, &k, &why, false)) << why;
+  EXPECT_FALSE(k.hasDistortion());
+  info.D.clear();
+  EXPECT_TRUE(fromCameraInfo(info, &k, &why, false)) << why;
+  // A D of the wrong length or with a NaN is refused with the reason.
+  info.distortion_model = "plumb_bob";
+  info.D = {0.1, 0, 0, 0, 0, 0, 0, 0};
+  EXPECT_FALSE(fromCameraInfo(info, &k, &why, false));
+  EXPECT_NE(why.find("takes 5 coefficients, got 8"), std::string::npos) << why;
+  info.D = {0.1, NAN, 0, 0, 0};
+  EXPECT_FALSE(fromCameraInfo(info, &k, &why, false));
+  EXPECT_NE(why.find("NaN"), std::string::npos) << why;
+  // A rectified image without a usable P.
+  info.P[0] = 0;
+  EXPECT_FALSE(fromCameraInfo(info, &k, &why, true));
+  EXPECT_NE(why.find("P has no usable focal length"), std::string::npos) << why;
 }
 
 TEST(Conversions, ImuRejectsNaNAndReadsMissingOrientation) {

@@ -8,7 +8,7 @@
 #include "instant_motion_tracking/AddAnchor.h"
 #include "instant_motion_tracking/AnchorArray.h"
 #include "instant_motion_tracking/RemoveRegion.h"
-#include "instant_motion_tracking/core/anchor.h"
+#include "instant_motion_tracking/core/anchor/anchor.h"
 
 #include "rostest_util.h"
 

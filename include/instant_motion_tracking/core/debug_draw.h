@@ -12,9 +12,9 @@
 // Threading: free functions are reentrant; OverlayHistory is not synchronised.
 #pragma once
 
-#include "instant_motion_tracking/core/anchor_manager.h"
-#include "instant_motion_tracking/core/planar_target.h"
-#include "instant_motion_tracking/core/region_tracker.h"
+#include "instant_motion_tracking/core/anchor/anchor_manager.h"
+#include "instant_motion_tracking/core/planar/planar_target.h"
+#include "instant_motion_tracking/core/region/region_tracker.h"
 #include "instant_motion_tracking/core/types.h"
 
 #include <deque>
@@ -31,9 +31,9 @@ struct DebugOverlay {
   std::vector<RegionState> regions;
   std::vector<PlanarTargetState> targets;
   std::vector<AnchorState> anchors;
-  // Projects the 3D axes of targets and anchors; without valid intrinsics
-  // anchors get a marker only and targets their quad only.
-  CameraIntrinsics intrinsics;
+  // Projects the 3D axes of targets and anchors (through its distortion);
+  // without a valid model anchors get a marker only and targets their quad only.
+  CameraModel intrinsics;
 };
 
 // Colours (BGR) of the overlay, by item kind; out-of-view and featureless

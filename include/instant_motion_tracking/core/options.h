@@ -9,10 +9,10 @@
 //   template <class S> void section(const char* name, S& sub);       // nested struct
 #pragma once
 
-#include "instant_motion_tracking/core/anchor_manager.h"
-#include "instant_motion_tracking/core/imu_orientation.h"
-#include "instant_motion_tracking/core/planar_target.h"
-#include "instant_motion_tracking/core/region_tracker_options.h"
+#include "instant_motion_tracking/core/anchor/anchor_manager.h"
+#include "instant_motion_tracking/core/anchor/imu_orientation.h"
+#include "instant_motion_tracking/core/planar/planar_target.h"
+#include "instant_motion_tracking/core/region/region_tracker_options.h"
 
 #include <string>
 
@@ -110,6 +110,9 @@ struct MotionAnalysisOptions {
 struct PipelineOptions {
   double cache_seconds = 10.0;   // s of motion data kept for adding regions in the past and seeking
   double default_hfov_deg = 60.0;  // horizontal field of view assumed without camera_info (deg)
+  // true: the images are already rectified (image_rect): camera_info's P gives
+  // fx, fy, cx, cy and its D is ignored; false: K and D (distortion honoured)
+  bool image_rectified = false;
   MotionAnalysisOptions motion_analysis;
   RegionTrackerOptions region_tracking;
   PlanarTargetOptions planar_tracking;
@@ -120,6 +123,8 @@ struct PipelineOptions {
   void visit(V& v) {
     v("cache_seconds", cache_seconds, "s of motion data kept for past regions and seeking");
     v("default_hfov_deg", default_hfov_deg, "horizontal field of view without camera_info (deg)");
+    v("image_rectified", image_rectified,
+      "true: images already rectified (image_rect): camera_info's P is used, D ignored; false: K and D");
     v.section("motion_analysis", motion_analysis);
     v.section("region_tracking", region_tracking);
     v.section("planar_tracking", planar_tracking);

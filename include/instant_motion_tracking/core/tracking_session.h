@@ -24,12 +24,12 @@
 // Threading: not thread-safe; callers serialise.
 #pragma once
 
-#include "instant_motion_tracking/core/anchor_manager.h"
-#include "instant_motion_tracking/core/motion_analysis.h"
+#include "instant_motion_tracking/core/anchor/anchor_manager.h"
+#include "instant_motion_tracking/core/motion/motion_analysis.h"
 #include "instant_motion_tracking/core/motion_cache.h"
 #include "instant_motion_tracking/core/options.h"
-#include "instant_motion_tracking/core/planar_target_manager.h"
-#include "instant_motion_tracking/core/region_manager.h"
+#include "instant_motion_tracking/core/planar/planar_target_manager.h"
+#include "instant_motion_tracking/core/region/region_manager.h"
 #include "instant_motion_tracking/core/types.h"
 
 #include <array>
@@ -52,7 +52,7 @@ struct FrameResult {
   // size changed); "" normally. The items given before are gone.
   std::string reset;
   cv::Mat gray;  // the frame (live, when given to analyze()); for overlays
-  CameraIntrinsics camera;  // the camera model of the frame
+  CameraModel camera;  // the camera model of the frame
 };
 
 // Accumulated wall time per stage (s) and the frame count.
@@ -76,10 +76,10 @@ class TrackingSession {
   // --- Inputs ---------------------------------------------------------------
   // The camera model from camera_info (valid = false: none). It is used for
   // frames of its size; other frames get a pinhole of default_hfov_deg.
-  void setCameraInfo(const CameraIntrinsics& info);
+  void setCameraInfo(const CameraModel& info);
   // The model of the current frames, and where it came from
   // ("camera_info", "field_of_view", or "none" before any frame).
-  CameraIntrinsics camera() const;
+  CameraModel camera() const;
   const char* cameraSource() const;
   // IMU -> camera rotation (tf); ignored (false) when anchors.rotation_cam_imu
   // fixes it or q is not a rotation.
@@ -162,7 +162,7 @@ class TrackingSession {
   RegionManager regions_;
   PlanarTargetManager targets_;
   std::unique_ptr<AnchorManager> anchors_;  // after regions_, which it refers to
-  CameraIntrinsics info_;
+  CameraModel info_;
   std::optional<Eigen::Quaterniond> q_cam_imu_;
   std::deque<Pending> pending_;
   std::vector<FrameResult> results_;

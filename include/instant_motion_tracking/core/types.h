@@ -2,6 +2,8 @@
 // No ROS in here: the core builds and is tested without catkin.
 #pragma once
 
+#include "instant_motion_tracking/core/camera_model.h"  // CameraModel, used with these types
+
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 #include <opencv2/core.hpp>
@@ -11,23 +13,6 @@
 #include <vector>
 
 namespace imt {
-
-// Pinhole intrinsics of the full-resolution image (px). `valid` is false when
-// unknown (no camera_info); callers then use a field-of-view default.
-struct CameraIntrinsics {
-  double fx = 0, fy = 0, cx = 0, cy = 0;
-  int width = 0, height = 0;
-  bool valid = false;
-
-  Eigen::Matrix3d K() const {
-    Eigen::Matrix3d k;
-    k << fx, 0, cx, 0, fy, cy, 0, 0, 1;
-    return k;
-  }
-  // Intrinsics of a w x h image with horizontal field of view `hfov_deg`,
-  // principal point at the centre and square pixels.
-  static CameraIntrinsics fromFieldOfView(int w, int h, double hfov_deg);
-};
 
 // One IMU sample in the IMU's own frame (sensor_msgs/Imu without ROS).
 struct ImuSample {

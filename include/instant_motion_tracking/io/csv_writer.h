@@ -16,8 +16,8 @@
 // Threading: one writer per thread.
 #pragma once
 
-#include "instant_motion_tracking/core/planar_target.h"
-#include "instant_motion_tracking/core/region_tracker.h"
+#include "instant_motion_tracking/core/planar/planar_target.h"
+#include "instant_motion_tracking/core/region/region_tracker.h"
 #include "instant_motion_tracking/core/types.h"
 
 #include <cstdint>

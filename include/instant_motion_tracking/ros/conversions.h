@@ -7,9 +7,9 @@
 #include "instant_motion_tracking/MotionData.h"
 #include "instant_motion_tracking/PlanarTargetArray.h"
 #include "instant_motion_tracking/TrackedRegionArray.h"
-#include "instant_motion_tracking/core/anchor_manager.h"
-#include "instant_motion_tracking/core/planar_target.h"
-#include "instant_motion_tracking/core/region_tracker.h"
+#include "instant_motion_tracking/core/anchor/anchor_manager.h"
+#include "instant_motion_tracking/core/planar/planar_target.h"
+#include "instant_motion_tracking/core/region/region_tracker.h"
 #include "instant_motion_tracking/core/types.h"
 
 #include <geometry_msgs/Pose.h>
@@ -25,10 +25,20 @@ namespace imt {
 instant_motion_tracking::MotionData toMsg(const MotionData& md, const std_msgs::Header& header);
 MotionData fromMsg(const instant_motion_tracking::MotionData& msg);
 
-// False (with the reason) when K is not a usable pinhole (zero/NaN focal
-// length, no size); the caller then falls back to the field-of-view default.
-bool fromCameraInfo(const sensor_msgs::CameraInfo& info, CameraIntrinsics* k, std::string* why);
-sensor_msgs::CameraInfo toCameraInfo(const CameraIntrinsics& k, const std_msgs::Header& header);
+// camera_info -> camera model (pixels: ours, cx = K[2] + 0.5). Raw images
+// (`image_rectified` false): fx, fy, cx, cy from K, distortion from
+// distortion_model and D (plumb_bob, rational_polynomial, equidistant; an
+// all-zero or empty D is no distortion under any name). Rectified images
+// (`image_rectified` true, parameter image_rectified): from P, D ignored.
+// False (with the reason) when K (or P) is not a usable pinhole (zero/NaN
+// focal length), there is no size, or D is non-zero with an unknown
+// distortion_model, too many coefficients or a NaN; the caller then warns
+// and falls back to the field-of-view default (CameraModel::forFrame).
+bool fromCameraInfo(const sensor_msgs::CameraInfo& info, CameraModel* k, std::string* why,
+                    bool image_rectified);
+// Camera model -> camera_info (K, D with its model name, P = K; plumb_bob with
+// a zero D without distortion).
+sensor_msgs::CameraInfo toCameraInfo(const CameraModel& k, const std_msgs::Header& header);
 
 // False (with the reason) for NaN/Inf values; orientation_covariance[0] == -1
 // means the message carries no orientation.

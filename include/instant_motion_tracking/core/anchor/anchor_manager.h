@@ -1,0 +1,198 @@
+// Calibration-free 6DoF anchors (paper 3.4) over a region manager and the IMU:
+// the logic behind the AnchorNodelet and track_bag's anchors.csv.
+//
+// An anchor is a square region around the tapped pixel, tracked by the
+// region tracker (translation and scale; predicted by the background motion
+// while out of view), plus the camera orientation from the IMU
+// (ImuOrientation, owned here). Its pose (core/anchor.h): the point lies along
+// the ray through the region's centre at depth * initial side / current side;
+// its frame has z up and x the camera's levelled viewing direction at
+// placement. The scale change is corrected (patchSizeFactor) for the region's
+// place in the image and, on a horizontal surface (anchors.surface), for the
+// changing obliqueness of the view. The anchor is tracked from the very frame it is placed.
+//
+// The regions live in a RegionManager owned by the caller (the nodelet's
+// own, or the pipeline's in track_bag), under region ids >= kAnchorRegionBase
+// so they never meet the user's regions. The manager installs the IMU
+// rotation as the region manager's camera fallback (RegionManager::
+// setCameraFallback) for frames without a usable camera model; call update() after every
+// RegionManager::update() so a reset there (time going backwards, a new image
+// size) clears the anchors too.
+//
+// Without IMU orientation for a frame (no IMU, or it has not reached the
+// frame) the status is no_imu: the translation is still tracked and the
+// orientation is the one at placement, relative to the camera. An anchor
+// placed before any IMU sample covers its frame takes its world orientation
+// ("x = levelled viewing direction") from the first frame the IMU covers.
+//
+// Usage (live):
+//   imt::RegionManager regions(o.region_tracking, o.cache_seconds);
+//   imt::AnchorManager anchors(o.anchors, o.imu, o.default_hfov_deg, &regions);
+//   anchors.setRotationCamImu(q_cam_imu_from_tf);   // ignored when anchors.rotation_cam_imu is set
+//   on IMU:   if (anchors.addImu(sample, &why) == ImuInput::kDropped) warn(why);
+//   on frame: queue md; while (anchors.ready(oldest_queued, newest_queued))
+//               { regions.update(oldest md); anchors.update();
+//                 anchors.stateAt(its stamp, {}, &states, &err); publish(states); pop; }
+//   anchors.add(0, stamp, {u, v}, depth, &id, &error);   // stamp 0 = the latest frame
+// Threading: not thread-safe; callers serialise (the nodelet holds a mutex).
+#pragma once
+
+#include "instant_motion_tracking/core/anchor/imu_orientation.h"
+#include "instant_motion_tracking/core/region/region_manager.h"
+#include "instant_motion_tracking/core/types.h"
+
+#include <Eigen/Geometry>
+#include <opencv2/core.hpp>
+
+#include <cstdint>
+#include <map>
+#include <string>
+#include <vector>
+
+namespace imt {
+
+// config/default.yaml: section `anchors:`.
+struct AnchorOptions {
+  // side of the square region tracked around the tap, fraction of the shorter image side
+  double region_size = 0.2;
+  double default_depth = 1.0;  // m; distance along the tap's ray when a request gives 0
+  // s of frames a frame's anchors wait for the IMU to pass its stamp (live)
+  double imu_wait_seconds = 0.1;
+  // s; an IMU stamp this far behind the newest resets the orientation (bag loop)
+  double imu_reset_seconds = 1.0;
+  // "qx qy qz qw": the IMU frame in the camera optical frame, overriding tf; "" = from tf
+  std::string rotation_cam_imu;
+  // the surface anchors are placed on, for the range from the region's scale:
+  // horizontal (floor, table; the paper's assumption; its tilt from the IMU) | facing (the camera)
+  std::string surface = "horizontal";
+
+  template <class V>
+  void visit(V& v) {
+    v("region_size", region_size,
+      "side of the square region tracked around the tap, fraction of the shorter image side");
+    v("default_depth", default_depth, "m; distance along the tap's ray when a request gives 0");
+    v("imu_wait_seconds", imu_wait_seconds,
+      "s of frames a frame's anchors wait for the IMU to pass its stamp (live)");
+    v("imu_reset_seconds", imu_reset_seconds,
+      "s; an IMU stamp this far behind the newest resets the orientation (bag loop)");
+    v("rotation_cam_imu", rotation_cam_imu,
+      "\"qx qy qz qw\": the IMU frame in the camera optical frame, overriding tf; \"\" = from tf");
+    v("surface", surface, "horizontal (floor, table; tilt from the IMU) | facing (the camera): corrects the range");
+  }
+  // Empty when usable, else "anchors.<field>: must be ... (got ...)".
+  std::string validate() const;
+  // The parsed rotation_cam_imu; false when it is empty (or malformed).
+  bool rotationCamImu(Eigen::Quaterniond* q) const;
+};
+
+enum class AnchorStatus : uint8_t { kTracked, kOutOfView, kNoImu, kLost };
+// "tracked", "out_of_view", "no_imu", "lost" (the CSV and message spelling).
+const char* anchorStatusName(AnchorStatus s);
+
+// One anchor at one frame.
+struct AnchorState {
+  uint32_t id = 0;
+  double stamp = 0;
+  // Projection of the anchor point (predicted when out of view); meaningless when lost.
+  cv::Point2d pixel;
+  // The anchor frame in the camera optical frame.
+  Eigen::Isometry3d T_cam_anchor = Eigen::Isometry3d::Identity();
+  AnchorStatus status = AnchorStatus::kTracked;
+  double confidence = 0;  // 0 .. 1 (the region's; 0 when lost)
+  std::string reason;     // why no_imu or lost (empty otherwise)
+
+  bool hasEstimate() const { return status != AnchorStatus::kLost; }
+};
+
+// What became of an IMU sample given to AnchorManager::addImu().
+// kGap: accepted after a gap longer than imu.max_gap_seconds (no orientation
+// inside it; roll and pitch re-levelled, yaw carried over: worth a warning).
+enum class ImuInput { kAccepted, kDropped, kReset, kGap };
+
+class AnchorManager {
+ public:
+  // Internal region ids of anchors start here (user regions stay below).
+  static constexpr uint32_t kAnchorRegionBase = 1000000000u;
+
+  // `regions` must outlive the manager. Invalid options (validate() not
+  // empty) are replaced by the defaults; check them beforehand.
+  AnchorManager(const AnchorOptions& options, const ImuOptions& imu_options,
+                double default_hfov_deg, RegionManager* regions);
+  ~AnchorManager();  // removes its camera fallback from the region manager
+  AnchorManager(const AnchorManager&) = delete;
+  AnchorManager& operator=(const AnchorManager&) = delete;
+
+  // The camera model of the images (camera_info's, with its distortion);
+  // intrinsics() is CameraModel::forFrame(it, the frames' size, default_hfov_deg).
+  void setIntrinsics(const CameraModel& k) { info_ = k; }
+  CameraModel intrinsics() const;
+
+  // IMU -> camera rotation (from tf2); ignored (false) when the options fix it
+  // or when q is not a usable rotation.
+  bool setRotationCamImu(const Eigen::Quaterniond& q_cam_imu);
+  bool rotationFromOptions() const { return rotation_fixed_; }
+  // Appends an IMU sample (stamp order). kDropped with *why for NaN values or
+  // a stamp not after the previous one; kReset when the stamp is more than
+  // imu_reset_seconds behind the newest (a bag loop): the orientation
+  // restarts from this sample and the anchors re-take their world
+  // orientation from the next frame the IMU covers.
+  ImuInput addImu(const ImuSample& s, std::string* why = nullptr);
+  const ImuOrientation& imu() const { return imu_; }
+  // Forgets every IMU sample (and the estimated bias); anchors re-take their
+  // world orientation from the next frame the IMU covers.
+  void resetImu();
+
+  // After every RegionManager::update(): clears the anchors when it reset.
+  void update();
+
+  // Places an anchor at the pixel `uv` (our pixel convention) of the frame
+  // nearest `stamp` (0 = latest; within the cache). id 0 chooses a free id;
+  // depth 0 = default_depth. False with a message for a duplicate id, a NaN
+  // or outside pixel, a negative or non-finite depth, or a stamp outside the cache.
+  bool add(uint32_t id, double stamp, const cv::Point2d& uv, double depth, uint32_t* assigned_id,
+           std::string* error);
+  bool remove(uint32_t id, std::string* error);
+  void clear();
+
+  // The states of `ids` (empty = all, in id order) at a cached `stamp` (0 = latest).
+  bool stateAt(double stamp, const std::vector<uint32_t>& ids, std::vector<AnchorState>* states,
+               std::string* error);
+  // Whether the frame at `stamp` can be given its anchors now (live): no
+  // anchors, no IMU ever seen, the IMU past the stamp, or the newest frame
+  // imu_wait_seconds after it. `newest_frame_stamp`: the newest frame known,
+  // when the caller holds frames back from the region manager until they
+  // are ready (so the IMU can stand in for a missing camera model).
+  bool ready(double stamp) const { return ready(stamp, regions_->newestStamp()); }
+  bool ready(double stamp, double newest_frame_stamp) const;
+
+  size_t size() const { return anchors_.size(); }
+  bool contains(uint32_t id) const { return anchors_.count(id) > 0; }
+  const AnchorOptions& options() const { return options_; }
+
+ private:
+  struct Anchor {
+    uint32_t id = 0, region_id = 0;
+    double stamp = 0;    // placement frame
+    double depth = 1.0;  // m along the tap's ray at placement
+    double side = 0;     // px, initial region side
+    cv::Point2d uv0;     // px, the tapped pixel
+    bool bound = false;  // R_world_anchor known from the IMU
+    Eigen::Matrix3d R_world_anchor = Eigen::Matrix3d::Identity();
+    // The camera at binding (or the image-up stand-in).
+    Eigen::Matrix3d R_world_cam0 = Eigen::Matrix3d::Identity();
+  };
+  void unbind(Anchor& a) const;
+  void tryBind(Anchor& a, double stamp);
+  AnchorState stateOf(Anchor& a, const RegionState& r, double stamp);
+
+  AnchorOptions options_;
+  double default_hfov_deg_;
+  RegionManager* regions_;
+  ImuOrientation imu_;
+  bool rotation_fixed_ = false;
+  CameraModel info_;
+  std::map<uint32_t, Anchor> anchors_;
+  uint32_t next_region_id_ = kAnchorRegionBase;
+};
+
+}  // namespace imt

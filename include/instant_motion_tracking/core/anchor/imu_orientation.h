@@ -1,0 +1,194 @@
+// IMU orientation for the calibration-free 6DoF anchors (paper 3.4, issue 6):
+// the rotation of the camera in a gravity-aligned world frame, from the
+// gyroscope (integrated) or from the IMU's own fused orientation.
+//
+// Usage:
+//   imt::ImuOrientation imu(options);                 // options.validate() must be empty
+//   imu.setRotationCamImu(q_cam_imu);                 // from /tf_static (default identity)
+//   std::string why;
+//   if (!imu.add(sample, &why)) log_throttled(why);   // samples in stamp order
+//   Eigen::Matrix3d R;
+//   if (imu.R_world_cam(image_stamp, &R)) ...         // any stamp inside the window
+//
+// Frames (docs/conventions.md): world z up (gravity -z); R_a_b maps b into a.
+// Without fused orientation the world yaw is arbitrary: the first
+// accelerometer reading (specific force, +g "up" at rest) is rotated onto
+// world +z by the smallest rotation. Roll and pitch are then observable, yaw
+// only relative to the start.
+//
+// Gyro integration: between consecutive samples the body rate is the mean of
+// the two readings minus the bias (midpoint rule), applied with the exact
+// rotation-vector exponential: R_k = R_{k-1} Exp(w_mid dt).
+//
+// Gyro bias: the fixed gyro_bias_{x,y,z}, replaced (estimate_gyro_bias) by
+// the mean gyro of any stretch of >= still_seconds made of consecutive blocks
+// (still_block_seconds) whose mean gyro is within still_gyro_max of the
+// current bias and whose mean accelerometer reading is within
+// still_accel_max of g (norm) and of the stretch's first block mean. (A slow
+// rotation about gravity below still_gyro_max cannot be told from a bias:
+// keep still_seconds long enough for the use case.) Once a bias is known the
+// gyro bound is still_gyro_tight, and a later stretch replaces the estimate
+// only after max(still_seconds, min(still_replace_seconds, duration of the
+// stretch behind the estimate)); while it lasts it keeps refining it. When a stretch
+// first qualifies, its samples are re-integrated with the new bias; if it is
+// the stretch the stream began with, the initial level is re-taken from its
+// mean accelerometer reading (less noisy than the first reading).
+//
+// Gaps: samples farther apart than max_gap_seconds are not integrated across
+// (the rate in between is unknown). Queries inside a gap return false; the
+// first sample after it takes the orientation before it, re-levelled onto its
+// accelerometer reading by the smallest rotation (roll and pitch observed
+// again, yaw carried over). gaps() counts them.
+//
+// Memory: orientations of the last window_seconds are kept (queries outside
+// [oldest, newest] stamp return false).
+//
+// Never throws on input data; bad samples are dropped with a reason.
+// Not thread-safe: one writer, queries from the same thread (or lock outside).
+#pragma once
+
+#include "instant_motion_tracking/core/types.h"
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+
+#include <cstddef>
+#include <deque>
+#include <string>
+
+namespace imt {
+
+// config/default.yaml would mirror this under `imu:`.
+struct ImuOptions {
+  bool use_fused_orientation = false;  // samples carrying orientation: use it instead of integrating the gyro
+  double gyro_bias_x = 0;              // rad/s, fixed gyro bias in the IMU frame (subtracted)
+  double gyro_bias_y = 0;              // rad/s
+  double gyro_bias_z = 0;              // rad/s
+  bool estimate_gyro_bias = true;      // a still stretch's mean gyro replaces the bias
+  double still_seconds = 1.0;          // s a still stretch must last before its mean gyro is used
+  double still_block_seconds = 0.1;    // s; stillness is judged on means over blocks this long (vibration averages out)
+  double still_gyro_max = 0.15;        // rad/s; block-mean |gyro - bias| above this: not still (must exceed the raw bias)
+  double still_gyro_tight = 0.03;      // rad/s; the same once a bias has been estimated
+  double still_replace_seconds = 3.0;  // s a later still stretch must last to replace an estimate (less if the estimate's was shorter)
+  double still_accel_max = 0.3;        // m/s^2; block-mean accel farther than this from g or the stretch's first block: not still
+  double gravity = 9.81;               // m/s^2, local gravity magnitude
+  double window_seconds = 10.0;        // s of integrated orientations kept for queries
+  double max_gap_seconds = 0.1;        // s between samples above which the stream is interrupted (a gap)
+
+  template <class V>
+  void visit(V& v) {
+    v("use_fused_orientation", use_fused_orientation,
+      "samples carrying orientation: use it instead of integrating the gyro");
+    v("gyro_bias_x", gyro_bias_x, "rad/s, fixed gyro bias in the IMU frame (subtracted)");
+    v("gyro_bias_y", gyro_bias_y, "rad/s, fixed gyro bias in the IMU frame (subtracted)");
+    v("gyro_bias_z", gyro_bias_z, "rad/s, fixed gyro bias in the IMU frame (subtracted)");
+    v("estimate_gyro_bias", estimate_gyro_bias, "a still stretch's mean gyro replaces the bias");
+    v("still_seconds", still_seconds, "s a still stretch must last before its mean gyro is used");
+    v("still_block_seconds", still_block_seconds,
+      "s; stillness is judged on means over blocks this long (vibration averages out)");
+    v("still_gyro_max", still_gyro_max,
+      "rad/s; block-mean |gyro - bias| above this: not still (must exceed the raw bias)");
+    v("still_gyro_tight", still_gyro_tight, "rad/s; the same once a bias has been estimated");
+    v("still_replace_seconds", still_replace_seconds,
+      "s a later still stretch must last to replace an estimate (less if the estimate's was shorter)");
+    v("still_accel_max", still_accel_max,
+      "m/s^2; block-mean accel farther than this from g or the stretch's first block: not still");
+    v("gravity", gravity, "m/s^2, local gravity magnitude");
+    v("window_seconds", window_seconds, "s of integrated orientations kept for queries");
+    v("max_gap_seconds", max_gap_seconds, "s between samples above which the stream is interrupted (a gap)");
+  }
+  // Empty when usable, else "imu.<field>: must be ... (got ...)".
+  std::string validate() const;
+
+  Eigen::Vector3d gyroBias() const { return Eigen::Vector3d(gyro_bias_x, gyro_bias_y, gyro_bias_z); }
+};
+
+class ImuOrientation {
+ public:
+  // Invalid options (validate() not empty) are replaced by the defaults;
+  // check options() / validate() beforehand.
+  explicit ImuOrientation(const ImuOptions& options = ImuOptions());
+
+  // Appends one sample. false (and *why, if given) when it is dropped: a NaN or
+  // infinite value, a stamp not after the previous accepted one, an unusable
+  // fused orientation, or no accelerometer reading to level the first sample.
+  bool add(const ImuSample& sample, std::string* why = nullptr);
+
+  // Rotation of the IMU in the camera optical frame (R_cam_imu); a
+  // non-finite or zero quaternion is ignored (returns false).
+  bool setRotationCamImu(const Eigen::Quaterniond& R_cam_imu);
+
+  // Orientation at stamp t (slerp between the bracketing samples); false when
+  // t is outside [oldestStamp(), newestStamp()] or no sample was accepted.
+  bool R_world_imu(double t, Eigen::Matrix3d* R) const;
+  bool R_world_cam(double t, Eigen::Matrix3d* R) const;
+  // Camera rotation between two stamps: maps camera-at-t2 vectors into the
+  // camera at t1 (R_world_cam(t1)^T R_world_cam(t2)). Yaw-free and bias-light:
+  // only the gyro between t1 and t2 matters. False across a gap.
+  bool R_cam1_cam2(double t1, double t2, Eigen::Matrix3d* R) const;
+  // Rotation-only homography mapping pixels at t1 to pixels at t2:
+  // H = K R_cam2_cam1 K^-1, H(2,2) = 1 (pure rotation or distant scene).
+  bool rotationHomography(const Eigen::Matrix3d& K, double t1, double t2, Eigen::Matrix3d* H) const;
+  // The same between *image* pixels of camera `k`: K R K^-1 holds between
+  // ideal pinhole pixels only; through a distorting lens the motion is
+  // distort(K R K^-1 undistort(p)), which no homography expresses, so this is
+  // the homography that fits it best over the image
+  // (CameraModel::imageHomography). Without distortion exactly the K overload.
+  bool rotationHomography(const CameraModel& k, double t1, double t2, Eigen::Matrix3d* H) const;
+  // World +z (up) in the camera frame at t (unit); zero vector when unknown.
+  Eigen::Vector3d upInCamera(double t) const;
+
+  // The bias currently subtracted (fixed or estimated), rad/s, IMU frame.
+  const Eigen::Vector3d& gyroBias() const { return bias_; }
+  bool biasEstimated() const { return bias_estimated_; }
+  bool empty() const { return window_.empty(); }
+  size_t size() const { return window_.size(); }
+  size_t gaps() const { return gaps_; }             // gaps met since construction or reset()
+  double lastGapSeconds() const { return last_gap_; }
+  double oldestStamp() const { return window_.empty() ? 0 : window_.front().stamp; }
+  double newestStamp() const { return window_.empty() ? 0 : window_.back().stamp; }
+  const ImuOptions& options() const { return options_; }
+  void reset();  // forget every sample and the estimated bias
+
+ private:
+  struct Entry {
+    double stamp = 0;
+    Eigen::Quaterniond q_world_imu = Eigen::Quaterniond::Identity();
+    Eigen::Vector3d gyro = Eigen::Vector3d::Zero();  // raw reading
+    bool fused = false;                              // q taken from the sample's orientation
+    bool after_gap = false;                          // not integrated from the previous entry
+  };
+  Eigen::Quaterniond integrate(const Entry& prev, const Eigen::Vector3d& gyro, double stamp) const;
+  void updateStill(const ImuSample& s);
+  void reintegrateFrom(double stamp);
+  Eigen::Quaterniond levelFromAccel(const Eigen::Vector3d& accel) const;
+  void prune();
+
+  ImuOptions options_;
+  Eigen::Quaterniond q_cam_imu_ = Eigen::Quaterniond::Identity();
+  Eigen::Vector3d bias_ = Eigen::Vector3d::Zero();
+  bool bias_estimated_ = false;
+  double estimate_seconds_ = 0;  // duration of the still stretch behind the estimate
+  std::deque<Entry> window_;
+  std::deque<double> gap_stamps_;  // stamps of the entries after a gap, within the window
+  size_t gaps_ = 0;
+  double last_gap_ = 0;
+  bool initial_stretch_ = false;  // the current still stretch began with the stream's first sample
+  // Current block of samples (still detection).
+  size_t block_count_ = 0;
+  double block_start_ = 0;
+  Eigen::Vector3d block_gyro_sum_ = Eigen::Vector3d::Zero();
+  Eigen::Vector3d block_accel_sum_ = Eigen::Vector3d::Zero();
+  // Current still stretch (whole quiet blocks).
+  size_t still_count_ = 0;
+  double still_start_ = 0;
+  bool still_confirmed_ = false;
+  Eigen::Vector3d still_gyro_sum_ = Eigen::Vector3d::Zero();
+  Eigen::Vector3d still_accel_sum_ = Eigen::Vector3d::Zero();
+  Eigen::Vector3d still_accel_first_ = Eigen::Vector3d::Zero();
+};
+
+// Exp of a rotation vector (exact, stable near zero).
+Eigen::Quaterniond quaternionExp(const Eigen::Vector3d& rotation_vector);
+
+}  // namespace imt

@@ -1,0 +1,89 @@
+// Many regions over a bounded cache of motion data (paper 3.2, "random access").
+//
+// The cache keeps the last `cache_seconds` of motion data. A region can be
+// added at any cached stamp: it is tracked forward to the latest frame at
+// once, and backwards on demand. seek() returns the regions' states at any
+// cached stamp. Per-region work is proportional to the features inside it;
+// the motion analysis is shared by all regions.
+//
+// Usage (live):
+//   imt::RegionManager regions(options.region_tracking, options.cache_seconds);
+//   for each frame: auto states = regions.update(motion_data);
+//   regions.add(0, stamp_in_the_past, box, &id, &error);
+//   regions.seek(stamp, {}, &states, &error);
+// Offline (track_bag): cache_seconds <= 0 keeps everything; add every region
+// after the motion analysis pass, then seek() each frame's stamp.
+// A camera-motion fallback (setCameraFallback, e.g. the IMU rotation that
+// AnchorManager installs) stands in for frames whose own camera model is
+// invalid, so regions out of view stay predicted through them.
+// Threading: not thread-safe; callers serialise (the nodelet holds a mutex).
+#pragma once
+
+#include "instant_motion_tracking/core/motion_cache.h"
+#include "instant_motion_tracking/core/region/region_tracker.h"
+
+#include <Eigen/Core>
+
+#include <functional>
+#include <map>
+#include <string>
+#include <vector>
+
+namespace imt {
+
+class RegionManager {
+ public:
+  RegionManager(const RegionTrackerOptions& options, double cache_seconds);
+
+  // Appends the next frame's motion data and advances every region to it.
+  // A stamp that does not increase, or a new image size, clears the cache and
+  // every region (a bag loop or a camera change): `lastReset()` says so.
+  // `image` is kept in the cache within its image budget (see MotionCache).
+  std::vector<RegionState> update(const MotionData& md, const cv::Mat& image = cv::Mat());
+  void setImageBudget(size_t bytes) { cache_.setImageBudget(bytes); }
+  void setImageSource(MotionCache::ImageSource source) { cache_.setImageSource(std::move(source)); }
+
+  // Adds a region whose box is given at `stamp` (nearest cached frame within
+  // half a frame interval; 0 = the latest frame). id 0 chooses a free id.
+  bool add(uint32_t id, double stamp, const cv::Rect2d& box, uint32_t* assigned_id,
+           std::string* error);
+  bool remove(uint32_t id, std::string* error);
+  // The states of `ids` (empty = all) at a cached `stamp`.
+  bool seek(double stamp, const std::vector<uint32_t>& ids, std::vector<RegionState>* states,
+            std::string* error);
+  // The states at the latest frame.
+  std::vector<RegionState> latest() const;
+
+  void clear();
+
+  // Camera motion H (pixels at t_prev -> pixels at t) for frames whose model
+  // is invalid; false when it does not know either. Used while tracking, so
+  // a state computed before the fallback knew a frame keeps what it had.
+  // nullptr (the default) turns it off.
+  using CameraFallback = std::function<bool(double t_prev, double t, Eigen::Matrix3d* H)>;
+  void setCameraFallback(CameraFallback fallback) { fallback_ = std::move(fallback); }
+  const MotionCache& cache() const { return cache_; }
+  size_t cachedFrames() const { return cache_.size(); }
+  double oldestStamp() const { return cache_.oldestStamp(); }
+  double newestStamp() const { return cache_.newestStamp(); }
+  size_t regionCount() const { return regions_.size(); }
+  const std::string& lastReset() const { return last_reset_; }
+
+ private:
+  struct Region {
+    uint32_t id = 0;
+    std::map<uint64_t, RegionState> states;  // by frame sequence number, forward semantics
+  };
+  const RegionState& stateAt(Region& r, uint64_t seq);
+  // The cached frame `seq`, its camera motion from the fallback when its own
+  // model is invalid (`scratch` holds the patched copy).
+  const MotionData& frame(uint64_t seq, MotionData* scratch) const;
+
+  RegionTrackerOptions options_;
+  MotionCache cache_;
+  std::map<uint32_t, Region> regions_;
+  std::string last_reset_;
+  CameraFallback fallback_;
+};
+
+}  // namespace imt

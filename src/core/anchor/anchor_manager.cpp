@@ -1,0 +1,309 @@
+#include "instant_motion_tracking/core/anchor/anchor_manager.h"
+
+#include "instant_motion_tracking/core/anchor/anchor.h"
+#include "option_checker.h"
+
+#include <algorithm>
+#include <cmath>
+#include <sstream>
+
+namespace imt {
+namespace {
+
+std::string num(double v) {
+  std::ostringstream os;
+  os.precision(12);
+  os << v;
+  return os.str();
+}
+
+// The image's up as world z, for anchors without IMU orientation: the camera
+// looks level along world y (optical x = world x, optical y = world -z).
+const Eigen::Matrix3d kImageUpStandIn =
+    (Eigen::Matrix3d() << 1, 0, 0, 0, 0, 1, 0, -1, 0).finished();
+
+}  // namespace
+
+const char* anchorStatusName(AnchorStatus s) {
+  switch (s) {
+    case AnchorStatus::kTracked:
+      return "tracked";
+    case AnchorStatus::kOutOfView:
+      return "out_of_view";
+    case AnchorStatus::kNoImu:
+      return "no_imu";
+    case AnchorStatus::kLost:
+      return "lost";
+  }
+  return "lost";
+}
+
+bool AnchorOptions::rotationCamImu(Eigen::Quaterniond* q) const {
+  if (rotation_cam_imu.empty()) return false;
+  std::istringstream in(rotation_cam_imu);
+  double x, y, z, w;
+  std::string rest;
+  if (!(in >> x >> y >> z >> w) || (in >> rest)) return false;
+  const Eigen::Quaterniond r(w, x, y, z);
+  const double n = r.norm();
+  if (!r.coeffs().allFinite() || !(std::abs(n - 1) < 1e-3)) return false;
+  *q = r.normalized();
+  return true;
+}
+
+std::string AnchorOptions::validate() const {
+  OptionChecker c("anchors");
+  c.check(region_size > 0.01 && region_size <= 1.0, "region_size", "must be in (0.01, 1]", region_size);
+  c.check(default_depth > 0 && default_depth <= 1e4, "default_depth", "must be in (0, 10000] m", default_depth);
+  c.inRange("imu_wait_seconds", imu_wait_seconds, 0.0, 10.0);
+  c.check(imu_reset_seconds > 0 && imu_reset_seconds <= 3600, "imu_reset_seconds", "must be in (0, 3600]",
+          imu_reset_seconds);
+  c.check(surface == "horizontal" || surface == "facing", "surface", "must be horizontal or facing",
+          "\"" + surface + "\"");
+  Eigen::Quaterniond q;
+  c.check(rotation_cam_imu.empty() || rotationCamImu(&q), "rotation_cam_imu",
+          "must be empty or \"qx qy qz qw\", a unit quaternion", "\"" + rotation_cam_imu + "\"");
+  return c.error();
+}
+
+AnchorManager::AnchorManager(const AnchorOptions& options, const ImuOptions& imu_options,
+                             double default_hfov_deg, RegionManager* regions)
+    : options_(options.validate().empty() ? options : AnchorOptions()),
+      default_hfov_deg_(default_hfov_deg),
+      regions_(regions),
+      imu_(imu_options) {
+  Eigen::Quaterniond q;
+  if (options_.rotationCamImu(&q)) rotation_fixed_ = imu_.setRotationCamImu(q);
+  // Frames without a usable camera model (blur, a featureless view): the
+  // regions, the anchors' among them, move by the IMU rotation instead.
+  // Through a distorting lens that motion is no homography between image
+  // pixels; the region manager takes one, so it gets the best fit over the
+  // image (CameraModel::imageHomography; see imu_orientation.h).
+  regions_->setCameraFallback([this](double t_prev, double t, Eigen::Matrix3d* H) {
+    return imu_.rotationHomography(intrinsics(), t_prev, t, H);
+  });
+}
+
+AnchorManager::~AnchorManager() { regions_->setCameraFallback(nullptr); }
+
+CameraModel AnchorManager::intrinsics() const {
+  const cv::Size size = regions_->cache().imageSize();
+  return CameraModel::forFrame(info_, size.width, size.height, default_hfov_deg_);
+}
+
+bool AnchorManager::setRotationCamImu(const Eigen::Quaterniond& q_cam_imu) {
+  if (rotation_fixed_) return false;
+  return imu_.setRotationCamImu(q_cam_imu);
+}
+
+ImuInput AnchorManager::addImu(const ImuSample& s, std::string* why) {
+  if (!imu_.empty() && std::isfinite(s.stamp) &&
+      s.stamp < imu_.newestStamp() - options_.imu_reset_seconds) {
+    if (why)
+      *why = "IMU stamp " + num(s.stamp) + " is " + num(imu_.newestStamp() - s.stamp) +
+             " s behind the previous one: IMU orientation restarted";
+    resetImu();
+    imu_.add(s);
+    return ImuInput::kReset;
+  }
+  const size_t gaps = imu_.gaps();
+  if (!imu_.add(s, why)) return ImuInput::kDropped;
+  if (imu_.gaps() == gaps) return ImuInput::kAccepted;
+  if (why)
+    *why = "IMU gap of " + num(imu_.lastGapSeconds()) + " s before stamp " + num(s.stamp) +
+           ": no orientation inside it; roll and pitch re-levelled from the accelerometer, yaw carried over";
+  return ImuInput::kGap;
+}
+
+void AnchorManager::resetImu() {
+  imu_.reset();
+  for (auto& [id, a] : anchors_) unbind(a);
+}
+
+void AnchorManager::update() {
+  if (!regions_->lastReset().empty()) anchors_.clear();  // the region manager dropped their regions
+}
+
+void AnchorManager::unbind(Anchor& a) const {
+  a.bound = false;
+  a.R_world_cam0 = kImageUpStandIn;
+  a.R_world_anchor = anchorOrientation(kImageUpStandIn);
+}
+
+// The world orientation of the anchor: from the IMU at placement, or, when
+// the IMU began after placement, at the first frame it covers.
+void AnchorManager::tryBind(Anchor& a, double stamp) {
+  if (a.bound || imu_.empty()) return;
+  Eigen::Matrix3d R;
+  if (!imu_.R_world_cam(a.stamp, &R)) {
+    if (!(a.stamp < imu_.oldestStamp() && imu_.R_world_cam(stamp, &R))) return;
+  }
+  a.bound = true;
+  a.R_world_cam0 = R;
+  a.R_world_anchor = anchorOrientation(R);
+}
+
+bool AnchorManager::add(uint32_t id, double stamp, const cv::Point2d& uv, double depth,
+                        uint32_t* assigned_id, std::string* error) {
+  if (id != 0 && anchors_.count(id)) {
+    *error = "anchor id " + std::to_string(id) + " is already tracked";
+    return false;
+  }
+  if (!std::isfinite(uv.x) || !std::isfinite(uv.y)) {
+    *error = "pixel (" + num(uv.x) + ", " + num(uv.y) + ") has a NaN or infinite value";
+    return false;
+  }
+  if (!std::isfinite(depth) || depth < 0) {
+    *error = "depth must be positive (0 = the default " + num(options_.default_depth) +
+             " m), got " + num(depth);
+    return false;
+  }
+  if (!std::isfinite(stamp)) {
+    *error = "stamp is not finite";
+    return false;
+  }
+  uint64_t seq;
+  if (!regions_->cache().find(stamp, &seq, error)) return false;
+  const cv::Size size = regions_->cache().imageSize();
+  if (!(uv.x >= 0 && uv.y >= 0 && uv.x <= size.width && uv.y <= size.height)) {
+    *error = "pixel (" + num(uv.x) + ", " + num(uv.y) + ") is outside the " +
+             std::to_string(size.width) + "x" + std::to_string(size.height) + " image";
+    return false;
+  }
+  if (id == 0) {
+    id = 1;
+    while (anchors_.count(id)) ++id;
+  }
+  Anchor a;
+  a.id = id;
+  a.stamp = regions_->cache().at(seq).stamp;
+  a.depth = depth > 0 ? depth : options_.default_depth;
+  a.side = options_.region_size * std::min(size.width, size.height);
+  a.uv0 = uv;
+  const cv::Rect2d box(uv.x - a.side / 2, uv.y - a.side / 2, a.side, a.side);
+  // A region id the region manager does not hold yet (ids of removed anchors are not reused).
+  uint32_t region_id = 0;
+  std::string why;
+  for (int tries = 0; tries < 1000 && region_id == 0; ++tries) {
+    const uint32_t candidate = next_region_id_++;
+    if (next_region_id_ < kAnchorRegionBase) next_region_id_ = kAnchorRegionBase;  // wrapped
+    if (!regions_->add(candidate, a.stamp, box, &region_id, &why)) {
+      if (why.find("already tracked") == std::string::npos) {
+        *error = why;
+        return false;
+      }
+      region_id = 0;
+    }
+  }
+  if (region_id == 0) {
+    *error = "no free internal region id for the anchor";
+    return false;
+  }
+  a.region_id = region_id;
+  unbind(a);
+  tryBind(a, a.stamp);
+  anchors_[id] = a;
+  *assigned_id = id;
+  return true;
+}
+
+bool AnchorManager::remove(uint32_t id, std::string* error) {
+  const auto it = anchors_.find(id);
+  if (it == anchors_.end()) {
+    *error = "unknown anchor id " + std::to_string(id);
+    return false;
+  }
+  std::string ignored;  // gone already when a reset cleared the regions
+  regions_->remove(it->second.region_id, &ignored);
+  anchors_.erase(it);
+  return true;
+}
+
+void AnchorManager::clear() {
+  std::string ignored;
+  for (const auto& [id, a] : anchors_) regions_->remove(a.region_id, &ignored);
+  anchors_.clear();
+}
+
+AnchorState AnchorManager::stateOf(Anchor& a, const RegionState& r, double stamp) {
+  tryBind(a, stamp);
+  AnchorState s;
+  s.id = a.id;
+  s.stamp = stamp;
+  s.pixel = cv::Point2d(r.box.x + r.box.width / 2, r.box.y + r.box.height / 2);
+  s.confidence = r.status == RegionStatus::kLost ? 0.0 : r.confidence;
+  Eigen::Matrix3d R_wc = a.R_world_cam0;
+  const bool imu_ok = a.bound && imu_.R_world_cam(stamp, &R_wc);
+  if (!imu_ok) R_wc = a.R_world_cam0;
+  const bool estimate = r.status != RegionStatus::kLost && r.box.width > 0;
+  double scale_ratio = 1.0;
+  if (estimate) {
+    // The surface's normal (world up) in the camera at placement and now,
+    // when the IMU gives both; else the patch is taken as facing the camera.
+    const CameraModel K = intrinsics();
+    const bool tilt = options_.surface == "horizontal" && a.bound && imu_ok;
+    const Eigen::Vector3d up0 = a.R_world_cam0.transpose() * Eigen::Vector3d::UnitZ();
+    const Eigen::Vector3d up = R_wc.transpose() * Eigen::Vector3d::UnitZ();
+    scale_ratio = a.side / r.box.width * patchSizeFactor(s.pixel, K, tilt ? &up : nullptr) /
+                  patchSizeFactor(a.uv0, K, tilt ? &up0 : nullptr);
+  }
+  s.T_cam_anchor = anchorPose(s.pixel, scale_ratio, a.depth, intrinsics(), R_wc, a.R_world_anchor);
+  if (!estimate) {
+    s.status = AnchorStatus::kLost;
+    s.reason = r.reason.empty() ? "its region is lost" : "region lost: " + r.reason;
+  } else if (!imu_ok) {
+    s.status = AnchorStatus::kNoImu;
+    if (imu_.empty())
+      s.reason = "no IMU sample";
+    else if (!a.bound)
+      s.reason = "the IMU has not covered the anchor's frame yet";
+    else
+      s.reason = "no IMU orientation at stamp " + num(stamp) + " (IMU spans " +
+                 num(imu_.oldestStamp()) + " .. " + num(imu_.newestStamp()) + ")";
+  } else {
+    s.status =
+        r.status == RegionStatus::kOutOfView ? AnchorStatus::kOutOfView : AnchorStatus::kTracked;
+  }
+  return s;
+}
+
+bool AnchorManager::stateAt(double stamp, const std::vector<uint32_t>& ids,
+                            std::vector<AnchorState>* states, std::string* error) {
+  std::vector<Anchor*> wanted;
+  if (ids.empty()) {
+    for (auto& [id, a] : anchors_) wanted.push_back(&a);
+  } else {
+    for (uint32_t id : ids) {
+      const auto it = anchors_.find(id);
+      if (it == anchors_.end()) {
+        *error = "unknown anchor id " + std::to_string(id);
+        return false;
+      }
+      wanted.push_back(&it->second);
+    }
+  }
+  if (!std::isfinite(stamp)) {
+    *error = "stamp is not finite";
+    return false;
+  }
+  uint64_t seq;
+  if (!regions_->cache().find(stamp, &seq, error)) return false;
+  const double frame_stamp = regions_->cache().at(seq).stamp;
+  states->clear();
+  for (Anchor* a : wanted) {
+    std::vector<RegionState> r;
+    if (!regions_->seek(frame_stamp, {a->region_id}, &r, error)) {
+      *error = "anchor " + std::to_string(a->id) + ": " + *error;
+      return false;
+    }
+    states->push_back(stateOf(*a, r[0], frame_stamp));
+  }
+  return true;
+}
+
+bool AnchorManager::ready(double stamp, double newest_frame_stamp) const {
+  if (anchors_.empty() || imu_.empty() || imu_.newestStamp() >= stamp) return true;
+  return newest_frame_stamp - stamp >= options_.imu_wait_seconds;
+}
+
+}  // namespace imt

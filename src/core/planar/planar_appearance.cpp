@@ -1,0 +1,291 @@
+// Image side of the planar targets' appearance alignment: sampling the frame
+// on a target-plane grid, finding what covers the target, and searching for
+// it (see planar_appearance.h).
+#include "planar_appearance.h"
+
+#include <opencv2/imgproc.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <functional>
+
+namespace imt {
+namespace planar_detail {
+namespace {
+
+cv::Matx33d toMatx(const Eigen::Matrix3d& M) {
+  cv::Matx33d m;
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 3; ++c) m(r, c) = M(r, c);
+  return m;
+}
+
+// The value below which a fraction `q` of `m`'s pixels under `mask` lie.
+float quantile(const cv::Mat& m, const cv::Mat& mask, double q) {
+  std::vector<float> v;
+  v.reserve(m.total());
+  for (int r = 0; r < m.rows; ++r) {
+    const float* pm = m.ptr<float>(r);
+    const uchar* pk = mask.ptr<uchar>(r);
+    for (int c = 0; c < m.cols; ++c)
+      if (pk[c]) v.push_back(pm[c]);
+  }
+  if (v.empty()) return 0;
+  const size_t k = std::min(v.size() - 1, static_cast<size_t>(q * v.size()));
+  std::nth_element(v.begin(), v.begin() + k, v.end());
+  return v[k];
+}
+
+}  // namespace
+
+Eigen::Matrix3d templateToPlane(double px_per_m, int level, double w, double h) {
+  const double f = (1 << level) / px_per_m;
+  Eigen::Matrix3d A;
+  A << f, 0, 0.5 / px_per_m - w / 2, 0, f, 0.5 / px_per_m - h / 2, 0, 0, 1;
+  return A;
+}
+
+Eigen::Matrix3d toPyramidPixel(int level) {
+  const double s = 1.0 / (1 << level);
+  Eigen::Matrix3d S;
+  S << s, 0, -0.5 * s, 0, s, -0.5 * s, 0, 0, 1;
+  return S;
+}
+
+int imageLevelFor(double ratio) {
+  if (!(ratio > 1.5)) return 0;
+  return std::min(4, static_cast<int>(std::lround(std::log2(ratio))));
+}
+
+namespace {
+
+// sampleImage through a distorting lens: every grid pixel's image pixel,
+// looked up by remap on the reduced part of the image under the grid.
+void sampleThroughLens(const cv::Mat& gray, int level, const Eigen::Matrix3d& M, cv::Size size,
+                       const CameraModel& lens, cv::Mat* out, cv::Mat* valid) {
+  const int s = 1 << level;
+  std::vector<cv::Point2d> px;
+  px.reserve(size.area());
+  std::vector<uchar> front(size.area(), 0);
+  for (int r = 0; r < size.height; ++r) {
+    for (int c = 0; c < size.width; ++c) {
+      const Eigen::Vector3d p = M * Eigen::Vector3d(c, r, 1);
+      const bool ok = p.z() > 1e-9;
+      front[r * size.width + c] = ok;
+      px.emplace_back(ok ? p.x() / p.z() : std::nan(""), ok ? p.y() / p.z() : std::nan(""));
+    }
+  }
+  lens.distort(&px);  // ideal -> image pixels (ours, full resolution)
+  double x0 = 1e18, y0 = 1e18, x1 = -1e18, y1 = -1e18;
+  for (const cv::Point2d& p : px) {
+    if (!(std::isfinite(p.x) && std::isfinite(p.y))) continue;
+    x0 = std::min(x0, p.x), x1 = std::max(x1, p.x);
+    y0 = std::min(y0, p.y), y1 = std::max(y1, p.y);
+  }
+  *out = cv::Mat::zeros(size, CV_32F);
+  *valid = cv::Mat::zeros(size, CV_8U);
+  const double margin = 4.0 * s + 2;  // pyrDown's 5 taps per level, bilinear sampling
+  const auto lo = [&](double v, int hi) {
+    return std::clamp(static_cast<int>(std::floor(std::max(v - margin, -1.0) / s)) * s, 0, hi);
+  };
+  const auto up = [&](double v, int hi) {
+    return std::clamp(static_cast<int>(std::ceil(std::min(v + margin, hi + 1.0) / s)) * s, 0, hi);
+  };
+  if (!(x1 >= x0) || !(y1 >= y0)) return;  // nothing in front of the camera
+  const int l = lo(x0, gray.cols), t = lo(y0, gray.rows);
+  const cv::Rect roi(l, t, up(x1, gray.cols) - l, up(y1, gray.rows) - t);
+  if (roi.width < s || roi.height < s) return;  // entirely outside the frame
+  cv::Mat im = gray(roi);
+  for (int i = 0; i < level; ++i) {
+    cv::Mat down;
+    cv::pyrDown(im, down);
+    im = down;
+  }
+  // Our full-resolution pixel -> OpenCV pixel of the cropped pyramid level.
+  const Eigen::Matrix3d S = toPyramidPixel(level);
+  cv::Mat map_x(size, CV_32F), map_y(size, CV_32F);
+  for (int r = 0; r < size.height; ++r) {
+    for (int c = 0; c < size.width; ++c) {
+      const cv::Point2d& p = px[r * size.width + c];
+      const bool ok = front[r * size.width + c] && std::isfinite(p.x) && std::isfinite(p.y);
+      map_x.at<float>(r, c) = ok ? static_cast<float>(S(0, 0) * p.x + S(0, 2) - roi.x / s) : -1e6f;
+      map_y.at<float>(r, c) = ok ? static_cast<float>(S(1, 1) * p.y + S(1, 2) - roi.y / s) : -1e6f;
+    }
+  }
+  cv::Mat warped;
+  cv::remap(im, warped, map_x, map_y, cv::INTER_LINEAR, cv::BORDER_CONSTANT, 0);
+  warped.convertTo(*out, CV_32F);
+  const cv::Mat ones(im.size(), CV_8U, cv::Scalar(255));
+  cv::remap(ones, *valid, map_x, map_y, cv::INTER_NEAREST, cv::BORDER_CONSTANT, 0);
+  cv::erode(*valid, *valid, cv::Mat());  // no bilinear samples mixing in the border
+}
+
+}  // namespace
+
+void sampleImage(const cv::Mat& gray, int level, const Eigen::Matrix3d& M, cv::Size size,
+                 cv::Mat* out, cv::Mat* valid, const CameraModel* lens) {
+  if (lens && lens->hasDistortion()) {
+    sampleThroughLens(gray, level, M, size, *lens, out, valid);
+    return;
+  }
+  const int s = 1 << level;
+  cv::Rect roi(0, 0, gray.cols, gray.rows);
+  double x0 = 1e18, y0 = 1e18, x1 = -1e18, y1 = -1e18;
+  bool bounded = true;
+  for (const Eigen::Vector2d& g :
+       {Eigen::Vector2d(-0.5, -0.5), Eigen::Vector2d(size.width - 0.5, -0.5),
+        Eigen::Vector2d(size.width - 0.5, size.height - 0.5),
+        Eigen::Vector2d(-0.5, size.height - 0.5)}) {
+    const Eigen::Vector3d p = M * g.homogeneous();
+    if (!(p.z() > 1e-9)) {
+      bounded = false;  // the grid reaches the horizon: take the whole frame
+      break;
+    }
+    x0 = std::min(x0, p.x() / p.z());
+    x1 = std::max(x1, p.x() / p.z());
+    y0 = std::min(y0, p.y() / p.z());
+    y1 = std::max(y1, p.y() / p.z());
+  }
+  if (bounded) {
+    const double margin = 4.0 * s + 2;  // pyrDown's 5 taps per level, bilinear sampling
+    const auto lo = [&](double v, int hi) {
+      return std::clamp(static_cast<int>(std::floor((v - margin) / s)) * s, 0, hi);
+    };
+    const auto up = [&](double v, int hi) {
+      return std::clamp(static_cast<int>(std::ceil((v + margin) / s)) * s, 0, hi);
+    };
+    const int l = lo(x0, gray.cols), t = lo(y0, gray.rows);
+    roi = cv::Rect(l, t, up(x1, gray.cols) - l, up(y1, gray.rows) - t);
+  }
+  if (roi.width < s || roi.height < s) {  // entirely outside the frame
+    *out = cv::Mat::zeros(size, CV_32F);
+    *valid = cv::Mat::zeros(size, CV_8U);
+    return;
+  }
+  cv::Mat im = gray(roi);
+  for (int i = 0; i < level; ++i) {
+    cv::Mat down;
+    cv::pyrDown(im, down);
+    im = down;
+  }
+  Eigen::Matrix3d crop = Eigen::Matrix3d::Identity();
+  crop(0, 2) = -static_cast<double>(roi.x / s);
+  crop(1, 2) = -static_cast<double>(roi.y / s);
+  const cv::Matx33d W = toMatx(crop * toPyramidPixel(level) * M);
+  cv::Mat warped;
+  cv::warpPerspective(im, warped, W, size, cv::INTER_LINEAR | cv::WARP_INVERSE_MAP,
+                      cv::BORDER_CONSTANT, 0);
+  warped.convertTo(*out, CV_32F);
+  const cv::Mat ones(im.size(), CV_8U, cv::Scalar(255));
+  cv::warpPerspective(ones, *valid, W, size, cv::INTER_NEAREST | cv::WARP_INVERSE_MAP,
+                      cv::BORDER_CONSTANT, 0);
+  cv::erode(*valid, *valid, cv::Mat());  // no bilinear samples mixing in the border
+}
+
+cv::Mat unoccludedPixels(const cv::Mat& tpl, const cv::Mat& grad, const cv::Mat& aligned,
+                         const cv::Mat& valid, double k_sigma, double shift) {
+  cv::Mat fit = valid.clone(), resid;
+  double sigma = 0;
+  for (int it = 0; it < 3; ++it) {
+    cv::Scalar mt, st, mi, si;
+    cv::meanStdDev(tpl, mt, st, fit);
+    cv::meanStdDev(aligned, mi, si, fit);
+    const double cov = cv::mean(tpl.mul(aligned), fit)[0] - mt[0] * mi[0];
+    const double gain = si[0] > 1e-3 ? cov / (si[0] * si[0]) : 1.0;
+    resid = cv::abs(tpl - (gain * aligned + (mt[0] - gain * mi[0])));
+    // The noise level from the best quarter (|N(0, s)| has its 25% quantile
+    // at 0.319 s), the next fit from the best half.
+    sigma = std::max(0.5, quantile(resid, valid, 0.25) / 0.319);
+    cv::bitwise_and(valid, resid <= quantile(resid, valid, 0.5), fit);
+  }
+  cv::Mat expected;
+  cv::magnitude(grad * shift, cv::Mat(grad.size(), CV_32F, cv::Scalar(sigma)), expected);
+  cv::Mat outliers = (resid > k_sigma * expected) & valid, dense;
+  const int win = std::max(3, std::min(tpl.cols, tpl.rows) / 8) | 1;
+  cv::boxFilter(outliers, dense, CV_32F, cv::Size(win, win), cv::Point(-1, -1), true,
+                cv::BORDER_REPLICATE);
+  cv::Mat covered = dense > 0.5 * 255;
+  cv::dilate(covered, covered, cv::getStructuringElement(cv::MORPH_RECT, cv::Size(win, win)));
+  cv::Mat keep;
+  cv::bitwise_and(valid, ~covered, keep);
+  return keep;
+}
+
+cv::Mat gradientMagnitude(const cv::Mat& im) {
+  cv::Mat gx, gy, g;
+  cv::Sobel(im, gx, CV_32F, 1, 0, 3, 1.0 / 8);
+  cv::Sobel(im, gy, CV_32F, 0, 1, 3, 1.0 / 8);
+  cv::magnitude(gx, gy, g);
+  return g;
+}
+
+SearchMatch searchTemplate(const cv::Mat& tpl, const cv::Mat& mask, const cv::Mat& window,
+                           int margin) {
+  SearchMatch best;
+  const int side = std::max(8, std::min(tpl.cols, tpl.rows) / 2);
+  const int nx = std::max(1, static_cast<int>(std::lround(static_cast<double>(tpl.cols) / side)));
+  const int ny = std::max(1, static_cast<int>(std::lround(static_cast<double>(tpl.rows) / side)));
+  std::vector<cv::Mat> scores;
+  std::vector<cv::Rect> rects;
+  for (int iy = 0; iy < ny; ++iy) {
+    for (int ix = 0; ix < nx; ++ix) {
+      const cv::Rect r(ix * tpl.cols / nx, iy * tpl.rows / ny,
+                       (ix + 1) * tpl.cols / nx - ix * tpl.cols / nx,
+                       (iy + 1) * tpl.rows / ny - iy * tpl.rows / ny);
+      cv::Scalar mean, stddev;
+      cv::meanStdDev(tpl(r), mean, stddev);
+      if (cv::countNonZero(mask(r)) < 0.9 * r.area() || stddev[0] < 2.0)
+        continue;  // partly unknown, or featureless
+      cv::Mat res;
+      cv::matchTemplate(window(cv::Rect(r.x, r.y, r.width + 2 * margin, r.height + 2 * margin)),
+                        tpl(r), res, cv::TM_CCOEFF_NORMED);
+      cv::patchNaNs(res, -1);
+      scores.push_back(res);
+      rects.push_back(r);
+    }
+  }
+  best.tiles = static_cast<int>(scores.size());
+  if (scores.size() < 2) return best;
+  const int n = 2 * margin + 1;
+  const size_t k = (scores.size() + 1) / 2;  // the better half of the tiles
+  cv::Mat combined(n, n, CV_32F);
+  std::vector<float> v(scores.size());
+  for (int y = 0; y < n; ++y) {
+    for (int x = 0; x < n; ++x) {
+      for (size_t i = 0; i < scores.size(); ++i) v[i] = scores[i].at<float>(y, x);
+      std::nth_element(v.begin(), v.begin() + (k - 1), v.end(), std::greater<float>());
+      float sum = 0;
+      for (size_t i = 0; i < k; ++i) sum += v[i];
+      combined.at<float>(y, x) = sum / k;
+    }
+  }
+  double max_val;
+  cv::Point p;
+  cv::minMaxLoc(combined, nullptr, &max_val, nullptr, &p);
+  best.score = max_val;
+  // Sub-pixel peak (parabola through the neighbours).
+  const auto refinePeak = [&](float lo, float mid, float hi) {
+    const float d = lo - 2 * mid + hi;
+    return d < 0 ? std::clamp(0.5 * (lo - hi) / d, -0.5, 0.5) : 0.0;
+  };
+  double sx = p.x, sy = p.y;
+  if (p.x > 0 && p.x < n - 1)
+    sx += refinePeak(combined.at<float>(p.y, p.x - 1), combined.at<float>(p.y, p.x),
+                     combined.at<float>(p.y, p.x + 1));
+  if (p.y > 0 && p.y < n - 1)
+    sy += refinePeak(combined.at<float>(p.y - 1, p.x), combined.at<float>(p.y, p.x),
+                     combined.at<float>(p.y + 1, p.x));
+  best.shift = cv::Point2d(sx - margin, sy - margin);
+  cv::Mat away(n, n, CV_8U, cv::Scalar(255));
+  cv::circle(away, p, std::max(2, side / 2), cv::Scalar(0), cv::FILLED);
+  double second;
+  cv::minMaxLoc(combined, nullptr, &second, nullptr, nullptr, away);
+  best.second = second;
+  best.seen = cv::Mat(tpl.size(), CV_8U, cv::Scalar(255));
+  for (size_t i = 0; i < scores.size(); ++i)
+    if (scores[i].at<float>(p) < 0.5 * best.score) best.seen(rects[i]).setTo(0);
+  return best;
+}
+
+}  // namespace planar_detail
+}  // namespace imt

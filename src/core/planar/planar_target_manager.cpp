@@ -1,0 +1,101 @@
+#include "instant_motion_tracking/core/planar/planar_target_manager.h"
+
+namespace imt {
+
+const PlanarTargetState& PlanarTargetManager::advance(Target& t, uint64_t seq, const MotionCache& cache) {
+  Eigen::Matrix3d H;
+  while (t.seq_fwd < seq) {
+    const bool valid = cache.cameraMotion(t.seq_fwd, t.seq_fwd + 1, &H);
+    ++t.seq_fwd;
+    t.states[t.seq_fwd] = t.forward->step(cache.at(t.seq_fwd), H, valid, cache.image(t.seq_fwd));
+  }
+  if (seq < t.seq_bwd) {
+    if (!t.backward) return t.states.at(t.seq_bwd);  // no backward copy: never happens
+    while (t.seq_bwd > seq && t.seq_bwd > cache.firstSeq()) {
+      const bool valid = cache.cameraMotion(t.seq_bwd, t.seq_bwd - 1, &H);
+      --t.seq_bwd;
+      t.states[t.seq_bwd] = t.backward->step(cache.at(t.seq_bwd), H, valid, cache.image(t.seq_bwd));
+    }
+  }
+  return t.states.at(seq);
+}
+
+std::vector<PlanarTargetState> PlanarTargetManager::update(const MotionCache& cache) {
+  std::vector<PlanarTargetState> out;
+  if (cache.empty()) return out;
+  for (auto it = targets_.begin(); it != targets_.end();) {
+    Target& t = it->second;
+    if (t.seq_fwd < cache.firstSeq()) {  // the cache was cleared under it (time jump)
+      it = targets_.erase(it);
+      continue;
+    }
+    out.push_back(advance(t, cache.lastSeq(), cache));
+    while (!t.states.empty() && t.states.begin()->first < cache.firstSeq()) t.states.erase(t.states.begin());
+    if (t.seq_bwd < cache.firstSeq()) t.seq_bwd = cache.firstSeq();
+    ++it;
+  }
+  return out;
+}
+
+bool PlanarTargetManager::add(uint32_t id, double stamp, const std::array<cv::Point2d, 4>& corners,
+                              double width_m, double height_m, const CameraModel& k,
+                              const MotionCache& cache, uint32_t* assigned_id, std::string* error) {
+  if (id != 0 && targets_.count(id)) {
+    *error = "planar target id " + std::to_string(id) + " is already tracked";
+    return false;
+  }
+  // The request itself first, so a bad quad is named even before any frame.
+  if (std::string e = validateTargetRequest(corners, width_m, height_m); !e.empty()) {
+    *error = e;
+    return false;
+  }
+  uint64_t seq;
+  if (!cache.find(stamp, &seq, error)) return false;
+  if (id == 0) {
+    id = 1;
+    while (targets_.count(id)) ++id;
+  }
+  auto tracker =
+      PlanarTargetTracker::create(options_, id, corners, width_m, height_m, k, cache.at(seq), error, cache.image(seq));
+  if (!tracker) return false;
+  Target t;
+  t.backward = std::make_unique<PlanarTargetTracker>(*tracker);
+  t.forward = std::move(tracker);
+  t.seq_fwd = t.seq_bwd = seq;
+  t.states[seq] = t.forward->state();
+  Target& stored = targets_[id] = std::move(t);
+  advance(stored, cache.lastSeq(), cache);
+  *assigned_id = id;
+  return true;
+}
+
+std::vector<uint32_t> PlanarTargetManager::ids() const {
+  std::vector<uint32_t> out;
+  for (const auto& [id, t] : targets_) out.push_back(id);
+  return out;
+}
+
+bool PlanarTargetManager::remove(uint32_t id, std::string* error) {
+  if (!targets_.erase(id)) {
+    *error = "unknown planar target id " + std::to_string(id);
+    return false;
+  }
+  return true;
+}
+
+bool PlanarTargetManager::stateAt(uint32_t id, uint64_t seq, const MotionCache& cache,
+                                  PlanarTargetState* state, std::string* error) {
+  const auto it = targets_.find(id);
+  if (it == targets_.end()) {
+    *error = "unknown planar target id " + std::to_string(id);
+    return false;
+  }
+  if (cache.empty() || seq < cache.firstSeq() || seq > cache.lastSeq()) {
+    *error = "frame outside the motion-data cache";
+    return false;
+  }
+  *state = advance(it->second, seq, cache);
+  return true;
+}
+
+}  // namespace imt

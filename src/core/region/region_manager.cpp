@@ -1,0 +1,169 @@
+#include "instant_motion_tracking/core/region/region_manager.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace imt {
+
+RegionManager::RegionManager(const RegionTrackerOptions& options, double cache_seconds)
+    : options_(options), cache_(cache_seconds) {}
+
+void RegionManager::clear() {
+  cache_.clear();
+  regions_.clear();
+}
+
+std::vector<RegionState> RegionManager::update(const MotionData& md, const cv::Mat& image) {
+  last_reset_.clear();
+  if (!cache_.push(md, &last_reset_, image)) {
+    regions_.clear();
+    last_reset_ += "; regions cleared";
+  }
+  const uint64_t seq = cache_.lastSeq();
+  std::vector<RegionState> out;
+  out.reserve(regions_.size());
+  for (auto& [id, r] : regions_) {
+    out.push_back(stateAt(r, seq));
+    // Forget states of frames that left the cache.
+    while (!r.states.empty() && r.states.begin()->first < cache_.firstSeq()) r.states.erase(r.states.begin());
+  }
+  return out;
+}
+
+namespace {
+
+Eigen::Vector2d applyH(const Eigen::Matrix3d& H, double x, double y) {
+  const Eigen::Vector3d p = H * Eigen::Vector3d(x, y, 1);
+  return p.head<2>() / p.z();
+}
+
+}  // namespace
+
+const MotionData& RegionManager::frame(uint64_t seq, MotionData* scratch) const {
+  const MotionData& md = cache_.at(seq);
+  if (md.camera.model != MotionModel::kInvalid || !fallback_ || seq == cache_.firstSeq()) return md;
+  Eigen::Matrix3d H;
+  if (!fallback_(cache_.at(seq - 1).stamp, md.stamp, &H) || !H.allFinite()) return md;
+  *scratch = md;
+  scratch->camera.model = MotionModel::kHomography;
+  scratch->camera.H = H;
+  // Residuals against the new camera motion: the previous position is where
+  // the old model's prediction came from.
+  const Eigen::Matrix3d H_old_inv = md.camera.H.inverse();
+  std::vector<float> rx, ry;
+  for (FeatureMotion& f : scratch->features) {
+    if (f.age == 0) continue;  // new: no motion yet
+    const Eigen::Vector2d prev = applyH(H_old_inv, f.x - f.dx, f.y - f.dy);
+    const Eigen::Vector2d predicted = applyH(H, prev.x(), prev.y());
+    f.dx = static_cast<float>(f.x - predicted.x());
+    f.dy = static_cast<float>(f.y - predicted.y());
+    rx.push_back(f.dx);
+    ry.push_back(f.dy);
+  }
+  // What the rotation leaves (the camera's translation), when enough features
+  // agree on it: their median residual, taken out of every residual.
+  if (static_cast<int>(rx.size()) >= options_.fallback_min_features) {
+    auto median = [](std::vector<float>& v) {
+      std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
+      return v[v.size() / 2];
+    };
+    const float mx = median(rx), my = median(ry);
+    Eigen::Matrix3d T = Eigen::Matrix3d::Identity();
+    T(0, 2) = mx;
+    T(1, 2) = my;
+    scratch->camera.H = T * H;
+    for (FeatureMotion& f : scratch->features) {
+      if (f.age == 0) continue;
+      f.dx -= mx;
+      f.dy -= my;
+    }
+  }
+  return *scratch;
+}
+
+const RegionState& RegionManager::stateAt(Region& r, uint64_t seq) {
+  RegionTracker tracker(options_, cache_.imageSize());
+  auto& st = r.states;
+  MotionData scratch;
+  // Forward from the newest known state.
+  for (uint64_t s = st.rbegin()->first; s < seq; ++s) {
+    st[s + 1] = tracker.step(st[s], frame(s + 1, &scratch), Direction::kForward);
+  }
+  // Backward from the oldest known state.
+  for (uint64_t s = st.begin()->first; s > seq; --s) {
+    st[s - 1] = tracker.step(st[s].reversed(), frame(s, &scratch), Direction::kBackward, cache_.at(s - 1).stamp)
+                    .reversed();
+  }
+  return st.at(seq);
+}
+
+bool RegionManager::add(uint32_t id, double stamp, const cv::Rect2d& box, uint32_t* assigned_id,
+                        std::string* error) {
+  if (!(std::isfinite(box.x) && std::isfinite(box.y) && std::isfinite(box.width) &&
+        std::isfinite(box.height))) {
+    *error = "box has a NaN or infinite value";
+    return false;
+  }
+  if (box.width <= 0 || box.height <= 0) {
+    *error = "box width and height must be positive (got " + std::to_string(box.width) + " x " +
+             std::to_string(box.height) + ")";
+    return false;
+  }
+  if (id != 0 && regions_.count(id)) {
+    *error = "region id " + std::to_string(id) + " is already tracked";
+    return false;
+  }
+  uint64_t seq;
+  if (!cache_.find(stamp, &seq, error)) return false;
+  const cv::Size size = cache_.imageSize();
+  if ((box & cv::Rect2d(0, 0, size.width, size.height)).area() <= 0) {
+    *error = "box lies entirely outside the " + std::to_string(size.width) + "x" +
+             std::to_string(size.height) + " image";
+    return false;
+  }
+  if (id == 0) {
+    id = 1;
+    while (regions_.count(id)) ++id;
+  }
+  Region& r = regions_[id];
+  r.id = id;
+  r.states[seq] = RegionState::start(id, box, cache_.at(seq).stamp);
+  stateAt(r, cache_.lastSeq());  // catch up to the present
+  *assigned_id = id;
+  return true;
+}
+
+bool RegionManager::remove(uint32_t id, std::string* error) {
+  if (!regions_.erase(id)) {
+    *error = "unknown region id " + std::to_string(id);
+    return false;
+  }
+  return true;
+}
+
+bool RegionManager::seek(double stamp, const std::vector<uint32_t>& ids,
+                         std::vector<RegionState>* states, std::string* error) {
+  for (uint32_t id : ids) {
+    if (!regions_.count(id)) {
+      *error = "unknown region id " + std::to_string(id);
+      return false;
+    }
+  }
+  uint64_t seq;
+  if (!cache_.find(stamp, &seq, error)) return false;
+  states->clear();
+  if (ids.empty()) {
+    for (auto& [id, r] : regions_) states->push_back(stateAt(r, seq));
+  } else {
+    for (uint32_t id : ids) states->push_back(stateAt(regions_.at(id), seq));
+  }
+  return true;
+}
+
+std::vector<RegionState> RegionManager::latest() const {
+  std::vector<RegionState> out;
+  for (const auto& [id, r] : regions_) out.push_back(r.states.rbegin()->second);
+  return out;
+}
+
+}  // namespace imt

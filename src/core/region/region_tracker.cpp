@@ -1,0 +1,427 @@
+#include "instant_motion_tracking/core/region/region_tracker.h"
+
+#include "option_checker.h"
+
+#include <Eigen/Dense>
+
+#include <algorithm>
+#include <cmath>
+#include <sstream>
+
+namespace imt {
+namespace {
+
+// One motion vector in the tracking direction: src in the state's frame, dst
+// in the frame being tracked into.
+struct Vec {
+  uint32_t id;
+  Eigen::Vector2d src, dst;
+  Eigen::Vector2d src_cam;  // src moved by the camera motion: the fit explains dst - src_cam
+  double prior = 1, weight = 1, error = 0;
+  bool in_box = false;
+};
+
+// dst = c + t + A (src - c), A = [a -b; b a]; a = 1, b = 0 for translation.
+struct LocalModel {
+  Eigen::Vector2d c = Eigen::Vector2d::Zero();
+  Eigen::Vector2d t = Eigen::Vector2d::Zero();
+  double a = 1, b = 0;
+  int dof = 2;
+  Eigen::Vector2d apply(const Eigen::Vector2d& p) const {
+    const Eigen::Vector2d q = p - c;
+    return c + t + Eigen::Vector2d(a * q.x() - b * q.y(), b * q.x() + a * q.y());
+  }
+  double scale() const { return std::hypot(a, b); }
+  double rotation() const { return std::atan2(b, a); }
+};
+
+// Weighted least squares for a model of `dof` 2 (translation), 3 (+scale) or
+// 4 (similarity). False when degenerate.
+bool fitModel(const std::vector<Vec>& v, const Eigen::Vector2d& c, int dof, LocalModel* m) {
+  Eigen::Matrix4d AtA = Eigen::Matrix4d::Zero();
+  Eigen::Vector4d Atb = Eigen::Vector4d::Zero();
+  double wsum = 0;
+  for (const Vec& e : v) {
+    if (e.weight <= 0) continue;
+    const Eigen::Vector2d q = e.src_cam - c, r = e.dst - c;
+    // unknowns: tx, ty, a, b
+    Eigen::Matrix<double, 2, 4> J;
+    J << 1, 0, q.x(), -q.y(), 0, 1, q.y(), q.x();
+    AtA += e.weight * J.transpose() * J;
+    Atb += e.weight * J.transpose() * r;
+    wsum += e.weight;
+  }
+  if (wsum <= 0) return false;
+  m->c = c;
+  m->dof = dof;
+  if (dof == 2) {
+    // translation only: r - q = t
+    Eigen::Vector2d t = Eigen::Vector2d::Zero();
+    for (const Vec& e : v)
+      if (e.weight > 0) t += e.weight * (e.dst - e.src_cam);
+    m->t = t / wsum;
+    m->a = 1;
+    m->b = 0;
+    return true;
+  }
+  if (dof == 3) {
+    const Eigen::Matrix3d M = AtA.topLeftCorner<3, 3>();
+    const Eigen::Vector3d x = M.ldlt().solve(Atb.head<3>());
+    if (!x.allFinite() || std::abs(M.determinant()) < 1e-9) return false;
+    m->t = x.head<2>();
+    m->a = x(2);
+    m->b = 0;
+    return true;
+  }
+  const Eigen::Vector4d x = AtA.ldlt().solve(Atb);
+  if (!x.allFinite() || std::abs(AtA.determinant()) < 1e-9) return false;
+  m->t = x.head<2>();
+  m->a = x(2);
+  m->b = x(3);
+  return true;
+}
+
+Eigen::Vector2d applyH(const Eigen::Matrix3d& H, const Eigen::Vector2d& p) {
+  const Eigen::Vector3d q = H * p.homogeneous();
+  return q.hnormalized();
+}
+
+// Box moved by a homography: its centre is mapped, its size scaled by the
+// local area change of H at the centre.
+cv::Rect2d moveBox(const cv::Rect2d& box, const Eigen::Matrix3d& H) {
+  const Eigen::Vector2d c(box.x + box.width / 2, box.y + box.height / 2);
+  const Eigen::Vector2d c2 = applyH(H, c);
+  const double h = 0.5 * std::max(1.0, std::min(box.width, box.height));
+  const Eigen::Vector2d dx = applyH(H, c + Eigen::Vector2d(h, 0)) - c2;
+  const Eigen::Vector2d dy = applyH(H, c + Eigen::Vector2d(0, h)) - c2;
+  double s = std::sqrt(std::abs(dx.x() * dy.y() - dx.y() * dy.x())) / h;
+  if (!std::isfinite(s) || s <= 0) s = 1;
+  return cv::Rect2d(c2.x() - s * box.width / 2, c2.y() - s * box.height / 2, s * box.width,
+                    s * box.height);
+}
+
+cv::Rect2d moveBox(const cv::Rect2d& box, const LocalModel& m) {
+  const Eigen::Vector2d c(box.x + box.width / 2, box.y + box.height / 2);
+  const Eigen::Vector2d c2 = m.apply(c);
+  const double s = m.scale();
+  return cv::Rect2d(c2.x() - s * box.width / 2, c2.y() - s * box.height / 2, s * box.width,
+                    s * box.height);
+}
+
+Eigen::Vector2d centre(const cv::Rect2d& b) { return {b.x + b.width / 2, b.y + b.height / 2}; }
+
+// A region with at least this much support (inlier count) that loses its
+// features coasts on its own motion instead of following the background.
+constexpr double kMinSupportToCoast = 5;
+// ... when at least this fraction of its box is inside the image.
+constexpr double kMinInsideToCoast = 0.75;
+
+// The usual interval between frames after a step of `interval` s that spans
+// `g` of the previous usual interval `usual`: learned from the first step,
+// followed slowly through jitter and rate drift, kept over gaps (dropped
+// frames), and taken at once when frames come faster.
+double nextFrameInterval(double usual, double interval, double g) {
+  if (!(interval > 0)) return usual;
+  if (usual <= 0 || g < 0.67) return interval;
+  if (g > 1.5) return usual;
+  return 0.9 * usual + 0.1 * interval;
+}
+
+double fractionInside(const cv::Rect2d& box, cv::Size size) {
+  const cv::Rect2d inter = box & cv::Rect2d(0, 0, size.width, size.height);
+  return box.area() > 0 ? inter.area() / box.area() : 0;
+}
+
+bool contains(const std::vector<uint32_t>& sorted, uint32_t id) {
+  return std::binary_search(sorted.begin(), sorted.end(), id);
+}
+
+}  // namespace
+
+const char* regionStatusName(RegionStatus s) {
+  switch (s) {
+    case RegionStatus::kTracked: return "tracked";
+    case RegionStatus::kFeatureless: return "featureless";
+    case RegionStatus::kOutOfView: return "out_of_view";
+    case RegionStatus::kLost: break;
+  }
+  return "lost";
+}
+
+RegionState RegionState::start(uint32_t id, const cv::Rect2d& box, double stamp) {
+  RegionState s;
+  s.id = id;
+  s.box = box;
+  s.stamp = stamp;
+  s.inlier_centroid = cv::Point2d(box.x + box.width / 2, box.y + box.height / 2);
+  return s;
+}
+
+RegionState RegionState::reversed() const {
+  RegionState r = *this;
+  r.velocity = -velocity;
+  r.object_velocity = -object_velocity;
+  return r;
+}
+
+std::string RegionTrackerOptions::validate() const {
+  OptionChecker c("region_tracking");
+  c.inRange("min_dilation", min_dilation, 0.0, 1.0);
+  c.inRange("velocity_dilation", velocity_dilation, 0.0, 20.0);
+  c.inRange("irls_iterations", irls_iterations, 1, 50);
+  c.check(error_floor > 0 && error_floor <= 10, "error_floor", "must be in (0, 10]", error_floor);
+  c.check(inlier_error > 0 && inlier_error <= 50, "inlier_error", "must be in (0, 50]", inlier_error);
+  c.inRange("inlier_boost", inlier_boost, 1.0, 1000.0);
+  c.check(outlier_cut > 0 && outlier_cut <= 1, "outlier_cut", "must be in (0, 1]", outlier_cut);
+  c.atLeast("min_features", min_features, 1);
+  c.atLeast("min_inliers_scale", min_inliers_scale, 3);
+  c.atLeast("min_inliers_similarity", min_inliers_similarity, 3);
+  c.check(max_scale_change >= 0 && max_scale_change < 1, "max_scale_change", "must be in [0, 1)", max_scale_change);
+  c.check(max_rotation >= 0 && max_rotation < M_PI, "max_rotation", "must be in [0, pi)", max_rotation);
+  c.check(velocity_blend >= 0 && velocity_blend < 1, "velocity_blend", "must be in [0, 1)", velocity_blend);
+  c.inRange("occlusion_ratio", occlusion_ratio, 0.0, 1.0);
+  c.atLeast("max_coast_frames", max_coast_frames, 0.0);
+  c.inRange("out_of_view_fraction", out_of_view_fraction, 0.0, 1.0);
+  c.check(lost_distance > 0, "lost_distance", "must be > 0", lost_distance);
+  c.atLeast("confidence_inliers", confidence_inliers, 1.0);
+  c.atLeast("fallback_min_features", fallback_min_features, 1);
+  return c.error();
+}
+
+RegionState RegionTracker::step(const RegionState& state, const MotionData& md, Direction dir,
+                                double prev_stamp) const {
+  const RegionTrackerOptions& o = options_;
+  RegionState next = state;
+  next.stamp = dir == Direction::kForward ? md.stamp : prev_stamp;
+  if (state.status == RegionStatus::kLost) return next;
+
+  // Camera (background) motion in the tracking direction.
+  const bool camera_valid = md.camera.model != MotionModel::kInvalid && md.camera.H.allFinite();
+  const Eigen::Matrix3d H_fwd = camera_valid ? md.camera.H : Eigen::Matrix3d::Identity();
+  const Eigen::Matrix3d H_inv = H_fwd.inverse();
+  const Eigen::Matrix3d H_dir = dir == Direction::kForward ? H_fwd : H_inv;
+
+  // Frames dropped upstream: this step spans `g` of the region's usual
+  // intervals, and its velocities (px per usual interval) are scaled by it.
+  const double interval = std::abs(dir == Direction::kForward ? md.stamp - state.stamp : state.stamp - prev_stamp);
+  const double g = boundedIntervalRatio(state.frame_interval > 0 ? interval / state.frame_interval : 1.0);
+  next.frame_interval = nextFrameInterval(state.frame_interval, interval, g);
+  const Eigen::Vector2d object_step = g * state.object_velocity;  // the region's own motion this step
+
+  // Search area: the box dilated by the expected motion.
+  const double L = std::max(image_size_.width, image_size_.height);
+  const double diag = std::hypot(state.box.width, state.box.height);
+  const double dil =
+      std::max(o.min_dilation * L, std::min(diag / 4, o.velocity_dilation * g * state.velocity.norm()));
+  const cv::Rect2d search(state.box.x - dil, state.box.y - dil, state.box.width + 2 * dil,
+                          state.box.height + 2 * dil);
+  const Eigen::Vector2d c = centre(state.box);
+  // The region's motion = camera motion + its own: the fit below explains
+  // what is left after moving everything by the camera model, so a region
+  // with little support still inherits the camera's zoom and rotation.
+  const cv::Rect2d camera_box = moveBox(state.box, H_dir);
+  const Eigen::Vector2d c_cam = centre(camera_box);
+  const Eigen::Vector2d camera_shift = c_cam - c;
+
+  // Motion vectors in the tracking direction, with their priors.
+  std::vector<Vec> vecs;
+  // Crop: with features sorted by x only those near the search area are
+  // visited (src is the previous position going forward, up to max_shift
+  // away in x from the current one).
+  auto crop_begin = md.features.begin(), crop_end = md.features.end();
+  if (md.sorted_by_x) {
+    const double margin = dir == Direction::kForward ? md.max_shift + 1.0 : 1.0;
+    crop_begin = std::lower_bound(md.features.begin(), md.features.end(), search.x - margin,
+                             [](const FeatureMotion& f, double x) { return f.x < x; });
+    crop_end = std::upper_bound(crop_begin, md.features.end(), search.br().x + margin,
+                            [](double x, const FeatureMotion& f) { return x < f.x; });
+  }
+  for (auto fit = crop_begin; fit != crop_end; ++fit) {
+    const FeatureMotion& f = *fit;
+    if (f.age == 0) continue;  // just detected: no motion measured yet
+    const Eigen::Vector2d cur(f.x, f.y);
+    const Eigen::Vector2d prev = applyH(H_inv, cur - Eigen::Vector2d(f.dx, f.dy));
+    Vec v{f.id, dir == Direction::kForward ? prev : cur, dir == Direction::kForward ? cur : prev};
+    if (!v.src.allFinite() || !v.dst.allFinite()) continue;
+    if (!search.contains(cv::Point2d(v.src.x(), v.src.y()))) continue;
+    v.in_box = state.box.contains(cv::Point2d(v.src.x(), v.src.y()));
+    v.src_cam = applyH(H_dir, v.src);
+    // Spatial prior: a Gaussian in box coordinates (both axes).
+    const double ux = (v.src.x() - c.x()) / (0.5 * std::max(1.0, state.box.width));
+    const double uy = (v.src.y() - c.y()) / (0.5 * std::max(1.0, state.box.height));
+    v.prior = std::exp(-0.5 * (ux * ux + uy * uy) / (0.8 * 0.8));
+    // Motion prior: agreement with the region's predicted motion (camera
+    // motion at the point plus the region's own velocity). Stronger while
+    // the region coasts through an occlusion.
+    if (state.support > 0) {
+      const Eigen::Vector2d expected = v.src_cam + object_step;
+      const double sigma = std::max(2.0, 0.5 * object_step.norm());
+      const double m = (v.dst - expected).squaredNorm() / (2 * sigma * sigma);
+      const double floor = state.coast_frames > 0 ? 0.05 : 0.3;
+      v.prior *= floor + (1 - floor) * std::exp(-m);
+    }
+    if (contains(state.inliers, f.id)) v.prior *= o.inlier_boost;
+    if (contains(state.outliers, f.id)) v.prior *= o.outlier_cut;
+    v.weight = v.prior;
+    vecs.push_back(v);
+  }
+  const int in_box = static_cast<int>(std::count_if(vecs.begin(), vecs.end(), [](const Vec& v) { return v.in_box; }));
+  const double frac_inside = fractionInside(state.box, image_size_);
+
+  // Camera-only prediction (static region), plus the region's own motion
+  // decaying, for featureless and out-of-view regions.
+  auto predictWithCamera = [&](RegionStatus status) {
+    cv::Rect2d b = camera_box;
+    next.object_velocity = Eigen::Vector2d::Zero();
+    if (status == RegionStatus::kOutOfView) {
+      // A moving region keeps going, slowing down (by 0.9 per usual interval).
+      next.object_velocity = std::pow(0.9, g) * state.object_velocity;
+      b.x += g * next.object_velocity.x();
+      b.y += g * next.object_velocity.y();
+    }
+    next.box = b;
+    next.status = status;
+    next.velocity = (centre(b) - c) / g;
+    next.confidence = status == RegionStatus::kFeatureless ? 0.5 : 0.3;
+    next.inliers.clear();
+    next.outliers.clear();
+    next.inlier_centroid = cv::Point2d(centre(b).x(), centre(b).y());
+    next.inlier_extent = cv::Size2d();
+    next.coast_frames = 0;
+    return next;
+  };
+
+  auto markLostIfFarOut = [&](RegionState& s) {
+    const Eigen::Vector2d cc = centre(s.box);
+    const double size = std::max(s.box.width, s.box.height);
+    const double dx = std::max({0.0, -cc.x(), cc.x() - image_size_.width});
+    const double dy = std::max({0.0, -cc.y(), cc.y() - image_size_.height});
+    if (std::hypot(dx, dy) > o.lost_distance * size) {
+      s.status = RegionStatus::kLost;
+      s.reason = "left the image by more than " + std::to_string(o.lost_distance) + " box sizes";
+      s.confidence = 0;
+    }
+  };
+
+  // Coast on the prediction (camera motion + own velocity), keeping the old
+  // support: it may reappear when the occluder has passed.
+  auto coast = [&]() {
+    if (state.coast_frames >= o.max_coast_frames) {
+      next.status = RegionStatus::kLost;
+      next.reason = "occluded for more than " + std::to_string(static_cast<int>(o.max_coast_frames)) +
+                    " frames";
+      next.confidence = 0;
+      return next;
+    }
+    next.box = camera_box;
+    next.box.x += object_step.x();
+    next.box.y += object_step.y();
+    next.velocity = (centre(next.box) - c) / g;
+    next.coast_frames = state.coast_frames + 1;
+    next.confidence = state.confidence * 0.9;
+    next.status = fractionInside(next.box, image_size_) < o.out_of_view_fraction ? RegionStatus::kOutOfView
+                                                                                 : RegionStatus::kTracked;
+    markLostIfFarOut(next);
+    return next;
+  };
+
+  if (in_box < o.min_features) {
+    const RegionStatus st =
+        frac_inside < o.out_of_view_fraction ? RegionStatus::kOutOfView : RegionStatus::kFeatureless;
+    // A region that had support and is still mostly in view lost its
+    // features all at once (covered, blurred, or a jump LK could not follow):
+    // it coasts on its own motion like an occluded one rather than stopping
+    // dead with the background. (Leaving the image takes the features along:
+    // that is no reason to trust its last own motion.)
+    if (frac_inside >= kMinInsideToCoast && state.support >= kMinSupportToCoast) return coast();
+    RegionState s = predictWithCamera(st);
+    markLostIfFarOut(s);
+    return s;
+  }
+
+  // IRLS: w_i = prior_i / error_i, fitting the highest model the inliers support.
+  LocalModel model;
+  int dof = 2;
+  int n_in = 0;
+  for (int it = 0; it < o.irls_iterations; ++it) {
+    if (!fitModel(vecs, c_cam, dof, &model)) {
+      dof = 2;
+      fitModel(vecs, c_cam, dof, &model);
+    }
+    n_in = 0;
+    const double motion = model.t.norm();
+    const double thr = o.inlier_error + 0.1 * motion;
+    for (Vec& v : vecs) {
+      v.error = (v.dst - model.apply(v.src_cam)).norm();
+      v.weight = v.prior / std::max(v.error, o.error_floor);
+      if (v.in_box && v.error < thr) ++n_in;
+    }
+    dof = n_in >= o.min_inliers_similarity ? 4 : n_in >= o.min_inliers_scale ? 3 : 2;
+  }
+  // Degree checks: fall back when scale or rotation leave their bounds.
+  // The bounds are per usual frame interval: a step over g intervals may
+  // scale and rotate g times as much.
+  const double max_scale = g * o.max_scale_change, max_rotation = g * o.max_rotation;
+  if (model.dof >= 3 && (std::abs(model.scale() - 1) > max_scale || std::abs(model.rotation()) > max_rotation)) {
+    fitModel(vecs, c_cam, model.dof == 4 ? 3 : 2, &model);
+    if (model.dof == 3 && std::abs(model.scale() - 1) > max_scale) fitModel(vecs, c_cam, 2, &model);
+  }
+
+  // Inliers and outliers from the final residuals.
+  const double thr = o.inlier_error + 0.1 * model.t.norm();
+  std::vector<uint32_t> inliers, outliers;
+  Eigen::Vector2d centroid = Eigen::Vector2d::Zero();
+  int continued = 0;
+  for (Vec& v : vecs) {
+    v.error = (v.dst - model.apply(v.src_cam)).norm();
+    if (!v.in_box) continue;
+    if (v.error < thr) {
+      inliers.push_back(v.id);
+      centroid += v.dst;
+      if (contains(state.inliers, v.id)) ++continued;
+    } else {
+      outliers.push_back(v.id);
+    }
+  }
+
+  // Occlusion: the fit rests on features that never supported the region
+  // and disagrees with its predicted motion: another object covers it.
+  const Eigen::Vector2d fitted_shift = model.apply(c_cam) - c;
+  const Eigen::Vector2d predicted_shift = camera_shift + object_step;
+  const bool conflicting = (fitted_shift - predicted_shift).norm() > std::max(3.0, 0.5 * object_step.norm());
+  const double n_fit = static_cast<double>(inliers.size());
+  // Support collapsed (most of the region hidden): a fit on the few
+  // features left is not trusted either.
+  const bool supported = state.support >= kMinSupportToCoast;
+  const bool collapsed = supported && n_fit < std::max<double>(o.min_features, 0.2 * state.support);
+  if (collapsed || (supported && continued < o.occlusion_ratio * std::max(1.0, n_fit) && conflicting))
+    return coast();
+
+  std::sort(inliers.begin(), inliers.end());
+  std::sort(outliers.begin(), outliers.end());
+  next.box = moveBox(camera_box, model);
+  const Eigen::Vector2d shift = centre(next.box) - c;
+  const bool first = state.support == 0;
+  const double blend = first ? 0.0 : o.velocity_blend;
+  next.velocity = blend * state.velocity + (1 - blend) * shift / g;
+  next.object_velocity = blend * state.object_velocity + (1 - blend) * (shift - camera_shift) / g;
+  if (!inliers.empty()) centroid /= static_cast<double>(inliers.size());
+  else centroid = centre(next.box);
+  next.inlier_centroid = cv::Point2d(centroid.x(), centroid.y());
+  Eigen::Vector2d var = Eigen::Vector2d::Zero();
+  for (const Vec& v : vecs)
+    if (v.in_box && v.error < thr) var += (v.dst - centroid).cwiseAbs2();
+  if (!inliers.empty()) var /= static_cast<double>(inliers.size());
+  next.inlier_extent = cv::Size2d(3.3 * std::sqrt(var.x()), 3.3 * std::sqrt(var.y()));
+  next.inliers = std::move(inliers);
+  next.outliers = std::move(outliers);
+  next.support = std::max(static_cast<double>(next.inliers.size()), 0.98 * state.support);
+  next.coast_frames = 0;
+  next.confidence = std::min(1.0, next.inliers.size() / o.confidence_inliers);
+  next.status = fractionInside(next.box, image_size_) < o.out_of_view_fraction ? RegionStatus::kOutOfView
+                                                                               : RegionStatus::kTracked;
+  markLostIfFarOut(next);
+  return next;
+}
+
+}  // namespace imt

@@ -11,9 +11,21 @@
 #pragma once
 
 #include <sstream>
+#include <stdexcept>
 #include <string>
 
 namespace imt {
+
+// The options, when they are usable; else throws std::invalid_argument with
+// validate()'s message. Every module checks its options this way, once, at
+// construction: an invalid option is never replaced by a default. (The
+// loaders, io/config.h and ros/params.h, validate before anything is built,
+// so a user meets the message there, naming the parameter.)
+template <class Options>
+const Options& validated(const Options& options) {
+  if (std::string e = options.validate(); !e.empty()) throw std::invalid_argument(e);
+  return options;
+}
 
 class OptionChecker {
  public:

@@ -1,5 +1,7 @@
 #include "instant_motion_tracking/core/tracking_session.h"
 
+#include "option_checker.h"
+
 #include <algorithm>
 #include <chrono>
 
@@ -19,7 +21,7 @@ ImuOptions imuOptionsFor(ImuOptions o, TrackingSession::Mode mode) {
 }  // namespace
 
 TrackingSession::TrackingSession(const PipelineOptions& options, Mode mode)
-    : options_(options),
+    : options_(validated(options)),
       mode_(mode),
       analyzer_(options.motion_analysis),
       regions_(options.region_tracking, mode == Mode::kOffline ? 0.0 : options.cache_seconds),

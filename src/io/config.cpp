@@ -2,6 +2,7 @@
 
 #include <yaml-cpp/yaml.h>
 
+#include <algorithm>
 #include <cmath>
 #include <fstream>
 #include <set>
@@ -104,7 +105,73 @@ class Lister {
   std::string prefix_;
 };
 
+// Writes parameters as YAML lines "name: default  # doc", nested sections
+// indented under a titled header; see defaultConfigYaml().
+class YamlDocWriter {
+ public:
+  YamlDocWriter(std::ostringstream* out, std::ostringstream* sections, int indent)
+      : out_(out), sections_(sections), indent_(indent) {}
+  template <class T>
+  void operator()(const char* name, T& field, const char* doc) {
+    std::ostringstream value;
+    if constexpr (std::is_same_v<T, bool>) {
+      value << (field ? "true" : "false");
+    } else if constexpr (std::is_same_v<T, std::string>) {
+      value << '"' << field << '"';
+    } else if constexpr (std::is_same_v<T, double>) {
+      value.precision(10);
+      value << field;
+      if (value.str().find_first_of(".e") == std::string::npos) value << ".0";
+    } else {
+      value << field;
+    }
+    std::string line = std::string(indent_, ' ') + name + ": " + value.str();
+    const size_t column = indent_ ? 33 : 27;
+    line.resize(std::max(column, line.size() + 1), ' ');
+    *out_ << line << "# " << doc << "\n";
+  }
+  template <class S>
+  void section(const char* name, S& sub) {
+    std::string header = std::string("# --- ") + sectionTitle(name) + " ";
+    header.resize(80, '-');
+    *sections_ << "\n" << header << "\n" << name << ":\n";
+    YamlDocWriter inner(sections_, sections_, indent_ + 2);
+    sub.visit(inner);
+  }
+
+ private:
+  static const char* sectionTitle(const std::string& name) {
+    if (name == "motion_analysis") return "motion analysis (paper 3.1)";
+    if (name == "region_tracking") return "region tracking (paper 3.2)";
+    if (name == "planar_tracking") return "planar targets (paper 3.3)";
+    if (name == "imu") return "IMU orientation (paper 3.4)";
+    if (name == "anchors") return "anchors (paper 3.4)";
+    return "";
+  }
+  std::ostringstream *out_, *sections_;
+  int indent_;
+};
+
 }  // namespace
+
+std::string defaultConfigYaml() {
+  std::ostringstream top, ros, sections;
+  PipelineOptions pipeline;
+  RosShellOptions shell;
+  YamlDocWriter p(&top, &sections, 0), r(&ros, &sections, 0);
+  pipeline.visit(p);
+  shell.visit(r);
+  return "# instant_motion_tracking parameters: the one file both the nodelets (loaded\n"
+         "# into each nodelet's private namespace by launch/tracking.launch) and\n"
+         "# track_bag (--config) read: every parameter with its default and what it does.\n"
+         "# Generated from the options structs (their visit()): do not edit by hand;\n"
+         "# change the struct, then: track_bag --print-default-config > config/default.yaml\n"
+         "# (test/io/test_config.cpp checks that the two agree).\n"
+         "\n# --- pipeline -----------------------------------------------------------------\n" +
+         top.str() +
+         "\n# --- ROS shell (nodelets only; track_bag ignores these) -----------------------\n" +
+         ros.str() + sections.str();
+}
 
 std::string RosShellOptions::validate() const {
   if (queue_size < 1 || queue_size > 1000) return "queue_size: must be in [1, 1000]";

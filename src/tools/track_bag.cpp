@@ -485,6 +485,10 @@ int main(int argc, char** argv) {
   };
   try {
     const Args args = parseArgs(argc, argv);
+    if (args.print_config) {
+      std::fputs(imt::defaultConfigYaml().c_str(), stdout);
+      return 0;
+    }
     if (args.help) {
       std::fputs(kUsage, stdout);
       return 0;

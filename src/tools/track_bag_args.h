@@ -43,6 +43,8 @@ options:
   --start S, --end E        process only the part from S to E seconds after
                             the bag's first message (bag time, as rosbag play -s)
   --quiet                   no progress bar
+  --print-default-config    print every parameter with its default and what it
+                            does (config/default.yaml is this output) and exit
   -h, --help                this text
 
 exit status: 0 success, 1 bad input (named in one line on stderr), 2 bad options
@@ -51,7 +53,7 @@ exit status: 0 success, 1 bad input (named in one line on stderr), 2 bad options
 struct Args {
   std::string bag, init, out_dir, image_topic, camera_info_topic, imu_topic, config, out_bag;
   double start = 0, end = -1;
-  bool quiet = false, help = false;
+  bool quiet = false, help = false, print_config = false;
 };
 
 // Thrown for any problem the user must fix; main prints it as one line.
@@ -96,6 +98,11 @@ inline Args parseArgs(int argc, char** argv) {
       a.help = true;
       continue;
     }
+    if (opt == "--print-default-config") {
+      if (has_inline_value) fail("--print-default-config takes no value", 2);
+      a.print_config = true;
+      continue;
+    }
     if (opt == "--quiet") {
       if (has_inline_value) fail("--quiet takes no value", 2);
       a.quiet = true;
@@ -121,7 +128,7 @@ inline Args parseArgs(int argc, char** argv) {
     else
       *it->second = value;
   }
-  if (a.help) return a;
+  if (a.help || a.print_config) return a;
   if (a.bag.empty()) fail("missing --bag (see --help)", 2);
   if (a.out_dir.empty()) fail("missing --out-dir (see --help)", 2);
   if (!start.empty()) a.start = parseSeconds("--start", start);

@@ -127,8 +127,8 @@ TEST(ImuOrientation, OptionsVisitAndValidate) {
   b = o;
   b.window_seconds = -1;
   EXPECT_NE(b.validate(), "");
-  ImuOrientation imu(b);  // invalid options fall back to the defaults
-  EXPECT_EQ(imu.options().window_seconds, ImuOptions().window_seconds);
+  // Invalid options are refused at construction, never swapped for defaults.
+  EXPECT_THROW(ImuOrientation imu(b), std::invalid_argument);
 }
 
 TEST(ImuOrientation, GyroIntegrationReproducesTheCameraRotation) {

@@ -289,6 +289,28 @@ TEST(TrackingSession, LiveAndOfflineAgreeOnCards) {
   EXPECT_LT(d, 1e-9) << "regions and planar targets, frame " << at;
 }
 
+// Invalid options are refused at construction with validate()'s message
+// (every module the same way), never replaced by defaults.
+TEST(TrackingSession, InvalidOptionsAreRefusedAtConstruction) {
+  PipelineOptions o;
+  o.region_tracking.irls_iterations = 0;
+  try {
+    TrackingSession s(o, TrackingSession::Mode::kLive);
+    FAIL() << "constructed with invalid options";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("region_tracking.irls_iterations"), std::string::npos) << e.what();
+  }
+  o = PipelineOptions();
+  o.anchors.region_size = 5;
+  EXPECT_THROW(AnchorManager(o.anchors, o.imu, 60, nullptr), std::invalid_argument);
+  o = PipelineOptions();
+  o.motion_analysis.max_features = -1;
+  EXPECT_THROW(MotionAnalyzer{o.motion_analysis}, std::invalid_argument);
+  o = PipelineOptions();
+  o.planar_tracking.min_points = -1;
+  EXPECT_THROW(PlanarTargetManager{o.planar_tracking}, std::invalid_argument);
+}
+
 TEST(TrackingSession, ItemsAreRefusedWithAMessage) {
   TrackingSession s(PipelineOptions(), TrackingSession::Mode::kLive);
   uint32_t id;

@@ -48,6 +48,17 @@ TEST(Config, DefaultYamlListsEveryParameterWithItsDefault) {
   EXPECT_TRUE(loadConfigFile(kDefaultYaml, &c, &err)) << err;
 }
 
+// Each parameter is described once, in its struct's visit(): the file is
+// that description rendered, so its defaults and comments cannot drift.
+TEST(Config, DefaultYamlIsGeneratedFromTheStructs) {
+  std::ifstream in(kDefaultYaml);
+  std::stringstream file;
+  file << in.rdbuf();
+  EXPECT_EQ(file.str(), defaultConfigYaml())
+      << "config/default.yaml differs from the options structs: regenerate it with\n"
+         "  track_bag --print-default-config > config/default.yaml";
+}
+
 TEST(Config, EveryLineOfDefaultYamlHasAComment) {
   std::ifstream in(kDefaultYaml);
   std::string line;

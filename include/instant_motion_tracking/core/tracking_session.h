@@ -68,7 +68,8 @@ class TrackingSession {
     kOffline  // the whole stream kept: items given at any frame, tracked both ways
   };
 
-  // `options.validate()` must be empty (the loaders check it).
+  // Throws std::invalid_argument on invalid options (validate(); the
+  // loaders check them first, naming the parameter).
   TrackingSession(const PipelineOptions& options, Mode mode);
   TrackingSession(const TrackingSession&) = delete;
   TrackingSession& operator=(const TrackingSession&) = delete;

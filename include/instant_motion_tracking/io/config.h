@@ -13,21 +13,28 @@ namespace imt {
 
 // Parameters of the ROS shell (nodelets); ignored by track_bag.
 struct RosShellOptions {
-  bool publish_tf = true;          // broadcast planar_target_<id> / anchor_<id> on tf2
-  std::string frame_prefix;        // prefix of those tf frame names
-  bool always_subscribe = false;   // subscribe to inputs even without subscribers (e.g. tf-only consumers)
-  int queue_size = 5;              // subscriber queue length (frames)
-  double diagnostic_period = 1.0;  // s (wall time) between /diagnostics reports
-  std::string image_transport = "raw";  // raw (sensor_msgs/Image) | compressed (<image>/compressed)
+  // Each field is documented once, in visit() below (config/default.yaml is
+  // generated from it: track_bag --print-default-config).
+  bool publish_tf = true;
+  std::string frame_prefix;
+  bool always_subscribe =
+      false;           // subscribe to inputs even without subscribers (e.g. tf-only consumers)
+  int queue_size = 5;
+  double diagnostic_period = 1.0;
+  std::string image_transport = "raw";
 
   template <class V>
   void visit(V& v) {
     v("publish_tf", publish_tf, "broadcast planar_target_<id> / anchor_<id> on tf2");
     v("frame_prefix", frame_prefix, "prefix of those tf frame names");
-    v("always_subscribe", always_subscribe, "subscribe to inputs even without subscribers");
+    v("always_subscribe", always_subscribe,
+      "subscribe to inputs even when nothing subscribes to the outputs (tf-only consumers)");
     v("queue_size", queue_size, "subscriber queue length (frames)");
-    v("diagnostic_period", diagnostic_period, "s (wall time) between /diagnostics reports");
-    v("image_transport", image_transport, "raw (sensor_msgs/Image) | compressed (<image>/compressed)");
+    v("diagnostic_period", diagnostic_period,
+      "s (wall time) between /diagnostics reports (input rate, latency, items by status)");
+    v("image_transport", image_transport,
+      "raw: sensor_msgs/Image on image | compressed: sensor_msgs/CompressedImage on "
+      "image/compressed (decoded by the nodelets)");
   }
   std::string validate() const;
 };
@@ -52,6 +59,10 @@ struct Config {
 bool loadConfigYaml(const std::string& text, const std::string& source, Config* config,
                     std::string* error);
 bool loadConfigFile(const std::string& path, Config* config, std::string* error);
+
+// config/default.yaml as generated from the options structs: every parameter
+// with its default and its visit() doc as the comment (the one description).
+std::string defaultConfigYaml();
 
 // Every parameter as "a.b.c" = its default rendered as YAML scalar text, in
 // visit() order (for documentation checks).

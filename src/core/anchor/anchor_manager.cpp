@@ -68,7 +68,7 @@ std::string AnchorOptions::validate() const {
 
 AnchorManager::AnchorManager(const AnchorOptions& options, const ImuOptions& imu_options,
                              double default_hfov_deg, RegionManager* regions)
-    : options_(options.validate().empty() ? options : AnchorOptions()),
+    : options_(validated(options)),
       default_hfov_deg_(default_hfov_deg),
       regions_(regions),
       imu_(imu_options) {

@@ -49,8 +49,7 @@ std::string ImuOptions::validate() const {
   return c.error();
 }
 
-ImuOrientation::ImuOrientation(const ImuOptions& options) : options_(options) {
-  if (!options_.validate().empty()) options_ = ImuOptions();
+ImuOrientation::ImuOrientation(const ImuOptions& options) : options_(validated(options)) {
   bias_ = options_.gyroBias();
 }
 

@@ -1,4 +1,6 @@
 // Motion analysis (paper 3.1): input checks and resets, downscaling to the
+
+#include "option_checker.h"
 // analysis resolution, feature tracking (FeatureTracker), camera motion
 // (CameraMotionEstimator) with temporal priors, and the per-feature
 // foreground/background classification, packed as MotionData in
@@ -62,7 +64,7 @@ struct MotionAnalyzer::Impl {
   Diagnostics diagnostics;
 };
 
-MotionAnalyzer::MotionAnalyzer(const MotionAnalysisOptions& options) : impl_(new Impl(options)) {}
+MotionAnalyzer::MotionAnalyzer(const MotionAnalysisOptions& options) : impl_(new Impl(validated(options))) {}
 MotionAnalyzer::~MotionAnalyzer() = default;
 MotionAnalyzer::MotionAnalyzer(MotionAnalyzer&&) noexcept = default;
 MotionAnalyzer& MotionAnalyzer::operator=(MotionAnalyzer&&) noexcept = default;

@@ -1,6 +1,10 @@
 #include "instant_motion_tracking/core/planar/planar_target_manager.h"
 
+#include "option_checker.h"
+
 namespace imt {
+
+PlanarTargetManager::PlanarTargetManager(const PlanarTargetOptions& options) : options_(validated(options)) {}
 
 const PlanarTargetState& PlanarTargetManager::advance(Target& t, uint64_t seq, const MotionCache& cache) {
   Eigen::Matrix3d H;

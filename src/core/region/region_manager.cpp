@@ -1,12 +1,14 @@
 #include "instant_motion_tracking/core/region/region_manager.h"
 
+#include "option_checker.h"
+
 #include <algorithm>
 #include <cmath>
 
 namespace imt {
 
 RegionManager::RegionManager(const RegionTrackerOptions& options, double cache_seconds)
-    : options_(options), cache_(cache_seconds) {}
+    : options_(validated(options)), cache_(cache_seconds) {}
 
 void RegionManager::clear() {
   cache_.clear();

@@ -40,6 +40,7 @@
 #include "instant_motion_tracking/core/anchor/imu_orientation.h"
 #include "instant_motion_tracking/core/region/region_manager.h"
 #include "instant_motion_tracking/core/types.h"
+#include "instant_motion_tracking/core/anchor/anchor_options.h"
 
 #include <Eigen/Geometry>
 #include <opencv2/core.hpp>
@@ -50,40 +51,6 @@
 #include <vector>
 
 namespace imt {
-
-// config/default.yaml: section `anchors:`.
-struct AnchorOptions {
-  // side of the square region tracked around the tap, fraction of the shorter image side
-  double region_size = 0.2;
-  double default_depth = 1.0;  // m; distance along the tap's ray when a request gives 0
-  // s of frames a frame's anchors wait for the IMU to pass its stamp (live)
-  double imu_wait_seconds = 0.1;
-  // s; an IMU stamp this far behind the newest resets the orientation (bag loop)
-  double imu_reset_seconds = 1.0;
-  // "qx qy qz qw": the IMU frame in the camera optical frame, overriding tf; "" = from tf
-  std::string rotation_cam_imu;
-  // the surface anchors are placed on, for the range from the region's scale:
-  // horizontal (floor, table; the paper's assumption; its tilt from the IMU) | facing (the camera)
-  std::string surface = "horizontal";
-
-  template <class V>
-  void visit(V& v) {
-    v("region_size", region_size,
-      "side of the square region tracked around the tap, fraction of the shorter image side");
-    v("default_depth", default_depth, "m; distance along the tap's ray when a request gives 0");
-    v("imu_wait_seconds", imu_wait_seconds,
-      "s of frames a frame's anchors wait for the IMU to pass its stamp (live)");
-    v("imu_reset_seconds", imu_reset_seconds,
-      "s; an IMU stamp this far behind the newest resets the orientation (bag loop)");
-    v("rotation_cam_imu", rotation_cam_imu,
-      "\"qx qy qz qw\": the IMU frame in the camera optical frame, overriding tf; \"\" = from tf");
-    v("surface", surface, "horizontal (floor, table; tilt from the IMU) | facing (the camera): corrects the range");
-  }
-  // Empty when usable, else "anchors.<field>: must be ... (got ...)".
-  std::string validate() const;
-  // The parsed rotation_cam_imu; false when it is empty (or malformed).
-  bool rotationCamImu(Eigen::Quaterniond* q) const;
-};
 
 enum class AnchorStatus : uint8_t { kTracked, kOutOfView, kNoImu, kLost };
 // "tracked", "out_of_view", "no_imu", "lost" (the CSV and message spelling).
@@ -114,8 +81,8 @@ class AnchorManager {
   // Internal region ids of anchors start here (user regions stay below).
   static constexpr uint32_t kAnchorRegionBase = 1000000000u;
 
-  // `regions` must outlive the manager. Invalid options (validate() not
-  // empty) are replaced by the defaults; check them beforehand.
+  // `regions` must outlive the manager. Throws std::invalid_argument on
+  // invalid options (validate()).
   AnchorManager(const AnchorOptions& options, const ImuOptions& imu_options,
                 double default_hfov_deg, RegionManager* regions);
   ~AnchorManager();  // removes its camera fallback from the region manager

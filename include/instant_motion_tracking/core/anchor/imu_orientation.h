@@ -48,6 +48,7 @@
 #pragma once
 
 #include "instant_motion_tracking/core/types.h"
+#include "instant_motion_tracking/core/anchor/imu_options.h"
 
 #include <Eigen/Core>
 #include <Eigen/Geometry>
@@ -58,55 +59,9 @@
 
 namespace imt {
 
-// config/default.yaml would mirror this under `imu:`.
-struct ImuOptions {
-  bool use_fused_orientation = false;  // samples carrying orientation: use it instead of integrating the gyro
-  double gyro_bias_x = 0;              // rad/s, fixed gyro bias in the IMU frame (subtracted)
-  double gyro_bias_y = 0;              // rad/s
-  double gyro_bias_z = 0;              // rad/s
-  bool estimate_gyro_bias = true;      // a still stretch's mean gyro replaces the bias
-  double still_seconds = 1.0;          // s a still stretch must last before its mean gyro is used
-  double still_block_seconds = 0.1;    // s; stillness is judged on means over blocks this long (vibration averages out)
-  double still_gyro_max = 0.15;        // rad/s; block-mean |gyro - bias| above this: not still (must exceed the raw bias)
-  double still_gyro_tight = 0.03;      // rad/s; the same once a bias has been estimated
-  double still_replace_seconds = 3.0;  // s a later still stretch must last to replace an estimate (less if the estimate's was shorter)
-  double still_accel_max = 0.3;        // m/s^2; block-mean accel farther than this from g or the stretch's first block: not still
-  double gravity = 9.81;               // m/s^2, local gravity magnitude
-  double window_seconds = 10.0;        // s of integrated orientations kept for queries
-  double max_gap_seconds = 0.1;        // s between samples above which the stream is interrupted (a gap)
-
-  template <class V>
-  void visit(V& v) {
-    v("use_fused_orientation", use_fused_orientation,
-      "samples carrying orientation: use it instead of integrating the gyro");
-    v("gyro_bias_x", gyro_bias_x, "rad/s, fixed gyro bias in the IMU frame (subtracted)");
-    v("gyro_bias_y", gyro_bias_y, "rad/s, fixed gyro bias in the IMU frame (subtracted)");
-    v("gyro_bias_z", gyro_bias_z, "rad/s, fixed gyro bias in the IMU frame (subtracted)");
-    v("estimate_gyro_bias", estimate_gyro_bias, "a still stretch's mean gyro replaces the bias");
-    v("still_seconds", still_seconds, "s a still stretch must last before its mean gyro is used");
-    v("still_block_seconds", still_block_seconds,
-      "s; stillness is judged on means over blocks this long (vibration averages out)");
-    v("still_gyro_max", still_gyro_max,
-      "rad/s; block-mean |gyro - bias| above this: not still (must exceed the raw bias)");
-    v("still_gyro_tight", still_gyro_tight, "rad/s; the same once a bias has been estimated");
-    v("still_replace_seconds", still_replace_seconds,
-      "s a later still stretch must last to replace an estimate (less if the estimate's was shorter)");
-    v("still_accel_max", still_accel_max,
-      "m/s^2; block-mean accel farther than this from g or the stretch's first block: not still");
-    v("gravity", gravity, "m/s^2, local gravity magnitude");
-    v("window_seconds", window_seconds, "s of integrated orientations kept for queries");
-    v("max_gap_seconds", max_gap_seconds, "s between samples above which the stream is interrupted (a gap)");
-  }
-  // Empty when usable, else "imu.<field>: must be ... (got ...)".
-  std::string validate() const;
-
-  Eigen::Vector3d gyroBias() const { return Eigen::Vector3d(gyro_bias_x, gyro_bias_y, gyro_bias_z); }
-};
-
 class ImuOrientation {
  public:
-  // Invalid options (validate() not empty) are replaced by the defaults;
-  // check options() / validate() beforehand.
+  // Throws std::invalid_argument on invalid options (validate()).
   explicit ImuOrientation(const ImuOptions& options = ImuOptions());
 
   // Appends one sample. false (and *why, if given) when it is dropped: a NaN or
@@ -143,7 +98,7 @@ class ImuOrientation {
   bool biasEstimated() const { return bias_estimated_; }
   bool empty() const { return window_.empty(); }
   size_t size() const { return window_.size(); }
-  size_t gaps() const { return gaps_; }             // gaps met since construction or reset()
+  size_t gaps() const { return gaps_; }  // gaps met since construction or reset()
   double lastGapSeconds() const { return last_gap_; }
   double oldestStamp() const { return window_.empty() ? 0 : window_.front().stamp; }
   double newestStamp() const { return window_.empty() ? 0 : window_.back().stamp; }

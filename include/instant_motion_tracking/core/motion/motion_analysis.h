@@ -43,6 +43,7 @@ namespace imt {
 
 class MotionAnalyzer {
  public:
+  // Throws std::invalid_argument on invalid options (validate()).
   explicit MotionAnalyzer(const MotionAnalysisOptions& options);
   ~MotionAnalyzer();
   MotionAnalyzer(MotionAnalyzer&&) noexcept;

@@ -28,6 +28,7 @@
 #pragma once
 
 #include "instant_motion_tracking/core/types.h"
+#include "instant_motion_tracking/core/planar/planar_target_options.h"
 
 #include <Eigen/Geometry>
 #include <opencv2/core.hpp>
@@ -38,86 +39,6 @@
 #include <string>
 
 namespace imt {
-
-struct PlanarTargetOptions {
-  std::string model =
-      "perspective";  // perspective (rigid 6DoF pose, LM) | homography (chained, for comparison)
-  double loss_scale = 1.5;     // px; Huber loss scale of the reprojection residuals
-  int max_iterations = 20;     // LM iterations per frame
-  double outlier_error = 3.0;  // px; model points reprojecting worse than this (and 3x the points'
-                               // noise level) are dropped
-  double join_error = 1.0;     // px; a new point joins when its second observation agrees this well
-                               // (or within 1.5x the points' noise level)
-  int min_points = 6;          // fewer model points visible: predicted by the camera motion
-  double confidence_points = 30;  // model points at which confidence reaches 1
-  double prediction_gate =
-      0.06;  // fraction of the target's size; a pose from fewer than 2 min_points points farther
-             // than this from the camera-motion prediction is not used (dragged by an occluder)
-  bool refine = true;       // align the target's look at placement with each frame (ECC)
-  int template_size = 256;  // px; long side of the rectified template kept at placement
-  double refine_min_correlation = 0.75;  // ECC correlation below which an alignment is not used
-  double refine_max_correction =
-      0.15;  // fraction of the target's size on screen; larger corrections are not used
-  double refine_max_step =
-      0.06;  // the same for a target aligned on the last frame; grows by this per unaligned frame
-  int refine_iterations = 10;    // ECC iterations per pyramid level at most
-  double refine_epsilon = 1e-3;  // ECC stops when the correlation changes less than this
-  double refine_min_visible =
-      0.35;  // fraction of the target (in view) that must be seen uncovered to align
-  double refine_outlier_sigma =
-      3.0;  // noise levels by which a covered (occluded) template pixel differs
-  double refine_search_range = 0.4;  // fraction of the target's size searched around it when the
-                                     // alignment fails or fits loosely (0: no search)
-  double refine_search_below =
-      0.95;  // ECC correlation below which the search is tried too and the better fit kept
-  double refine_search_min_score = 0.6;  // normalised correlation a search's match must reach
-  double refine_search_margin =
-      0.15;  // by which it must beat the best match elsewhere (no repeated-pattern confusion)
-  double image_memory_mb = 512;  // MB of gray frames kept for the alignment (oldest dropped first)
-
-  template <class V>
-  void visit(V& v) {
-    v("model", model, "perspective (rigid 6DoF pose, LM) | homography (chained, for comparison)");
-    v("loss_scale", loss_scale, "px; Huber loss scale of the reprojection residuals");
-    v("max_iterations", max_iterations, "LM iterations per frame");
-    v("outlier_error", outlier_error,
-      "px; model points reprojecting worse (and 3x the points' noise level) are dropped");
-    v("join_error", join_error,
-      "px; a new point joins when its second observation agrees this well (or within 1.5x the "
-      "points' noise level)");
-    v("min_points", min_points, "fewer model points visible: predicted by the camera motion");
-    v("confidence_points", confidence_points, "model points at which confidence reaches 1");
-    v("prediction_gate", prediction_gate,
-      "fraction of the target's size; a pose from fewer than 2 min_points points farther than this "
-      "from the camera-motion prediction is not used (dragged by an occluder)");
-    v("refine", refine, "align the target's look at placement with each frame (ECC): no drift");
-    v("template_size", template_size, "px; long side of the rectified template kept at placement");
-    v("refine_min_correlation", refine_min_correlation,
-      "ECC correlation below which an alignment is not used");
-    v("refine_max_correction", refine_max_correction,
-      "fraction of the target's size on screen; larger corrections are not used");
-    v("refine_max_step", refine_max_step,
-      "the same for a target aligned on the last frame; grows by this per unaligned frame");
-    v("refine_iterations", refine_iterations, "ECC iterations per pyramid level at most");
-    v("refine_epsilon", refine_epsilon, "ECC stops when the correlation changes less than this");
-    v("refine_min_visible", refine_min_visible,
-      "fraction of the target (in view) that must be seen uncovered to align");
-    v("refine_outlier_sigma", refine_outlier_sigma,
-      "noise levels by which a covered (occluded) template pixel differs");
-    v("refine_search_range", refine_search_range,
-      "fraction of the target's size searched around it when the alignment fails or fits loosely "
-      "(0: no search)");
-    v("refine_search_below", refine_search_below,
-      "ECC correlation below which the search is tried too and the better fit kept");
-    v("refine_search_min_score", refine_search_min_score,
-      "normalised correlation a search's match must reach");
-    v("refine_search_margin", refine_search_margin,
-      "by which it must beat the best match elsewhere (no repeated-pattern confusion)");
-    v("image_memory_mb", image_memory_mb,
-      "MB of gray frames kept for the alignment (oldest dropped first)");
-  }
-  std::string validate() const;
-};
 
 enum class TargetStatus : uint8_t { kTracked, kOutOfView, kLost };
 const char* targetStatusName(TargetStatus s);  // "tracked", "out_of_view", "lost"

@@ -25,7 +25,8 @@ namespace imt {
 
 class PlanarTargetManager {
  public:
-  explicit PlanarTargetManager(const PlanarTargetOptions& options) : options_(options) {}
+  // Throws std::invalid_argument on invalid options (validate()).
+  explicit PlanarTargetManager(const PlanarTargetOptions& options);
 
   // Advances every target to the newest frame of `cache`.
   std::vector<PlanarTargetState> update(const MotionCache& cache);

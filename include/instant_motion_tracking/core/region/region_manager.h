@@ -33,6 +33,7 @@ namespace imt {
 
 class RegionManager {
  public:
+  // Throws std::invalid_argument on invalid options (validate()).
   RegionManager(const RegionTrackerOptions& options, double cache_seconds);
 
   // Appends the next frame's motion data and advances every region to it.

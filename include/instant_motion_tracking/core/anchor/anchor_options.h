@@ -1,0 +1,46 @@
+// Anchor (paper 3.4) options. One struct, each field documented once in visit();
+// config/default.yaml is generated from it.
+#pragma once
+
+#include <Eigen/Geometry>
+
+#include <string>
+
+namespace imt {
+
+// config/default.yaml: section `anchors:`.
+struct AnchorOptions {
+  // Each field is documented once, in visit() below (config/default.yaml is
+  // generated from it: track_bag --print-default-config).
+  double region_size = 0.2;
+  double default_depth = 1.0;
+  double imu_wait_seconds = 0.1;
+  double imu_reset_seconds = 1.0;
+  std::string rotation_cam_imu;
+  std::string surface = "horizontal";
+
+  template <class V>
+  void visit(V& v) {
+    v("region_size", region_size,
+      "side of the square region tracked around the tap, fraction of the shorter image side");
+    v("default_depth", default_depth,
+      "m; distance along the tap's ray when an add_anchor request gives depth 0");
+    v("imu_wait_seconds", imu_wait_seconds,
+      "s of frames a frame's anchors wait for the IMU to pass its stamp (live; then no_imu)");
+    v("imu_reset_seconds", imu_reset_seconds,
+      "s; an IMU stamp this far behind the newest restarts the orientation (bag loop); smaller "
+      "steps back are dropped");
+    v("rotation_cam_imu", rotation_cam_imu,
+      "\"qx qy qz qw\": the IMU frame's rotation in the camera optical frame, overriding "
+      "/tf_static; \"\" = from tf");
+    v("surface", surface,
+      "what anchors sit on, for the range from the region's scale: horizontal (floor, table: the "
+      "paper's assumption; tilt from the IMU) | facing (a patch facing the camera)");
+  }
+  // Empty when usable, else "anchors.<field>: must be ... (got ...)".
+  std::string validate() const;
+  // The parsed rotation_cam_imu; false when it is empty (or malformed).
+  bool rotationCamImu(Eigen::Quaterniond* q) const;
+};
+
+}  // namespace imt

@@ -1,0 +1,66 @@
+// IMU orientation options (anchors, paper 3.4). One struct, each field documented once in visit();
+// config/default.yaml is generated from it.
+#pragma once
+
+#include <Eigen/Geometry>
+
+#include <string>
+
+namespace imt {
+
+// config/default.yaml would mirror this under `imu:`.
+struct ImuOptions {
+  // Each field is documented once, in visit() below (config/default.yaml is
+  // generated from it: track_bag --print-default-config).
+  bool use_fused_orientation =
+      false;               // samples carrying orientation: use it instead of integrating the gyro
+  double gyro_bias_x = 0;
+  double gyro_bias_y = 0;
+  double gyro_bias_z = 0;
+  bool estimate_gyro_bias = true;
+  double still_seconds = 1.0;
+  double still_block_seconds =
+      0.1;  // s; stillness is judged on means over blocks this long (vibration averages out)
+  double still_gyro_max =
+      0.15;  // rad/s; block-mean |gyro - bias| above this: not still (must exceed the raw bias)
+  double still_gyro_tight = 0.03;
+  double still_replace_seconds = 3.0;
+  double still_accel_max = 0.3;
+  double gravity = 9.81;
+  double window_seconds = 10.0;
+  double max_gap_seconds = 0.1;
+
+  template <class V>
+  void visit(V& v) {
+    v("use_fused_orientation", use_fused_orientation,
+      "samples carrying orientation: use it instead of integrating the gyro");
+    v("gyro_bias_x", gyro_bias_x, "rad/s, fixed gyro bias in the IMU frame (subtracted)");
+    v("gyro_bias_y", gyro_bias_y, "rad/s, fixed gyro bias in the IMU frame (subtracted)");
+    v("gyro_bias_z", gyro_bias_z, "rad/s, fixed gyro bias in the IMU frame (subtracted)");
+    v("estimate_gyro_bias", estimate_gyro_bias, "a still stretch's mean gyro replaces the bias");
+    v("still_seconds", still_seconds, "s a still stretch must last before its mean gyro is used");
+    v("still_block_seconds", still_block_seconds,
+      "s; stillness is judged on means over blocks this long (vibration averages out)");
+    v("still_gyro_max", still_gyro_max,
+      "rad/s; block-mean |gyro - bias| above this: not still (must exceed the raw bias)");
+    v("still_gyro_tight", still_gyro_tight, "rad/s; the same once a bias has been estimated");
+    v("still_replace_seconds", still_replace_seconds,
+      "s a later still stretch must last to replace an estimate (less if the estimate's was "
+      "shorter)");
+    v("still_accel_max", still_accel_max,
+      "m/s^2; block-mean accel farther than this from g or the stretch's first block: not still");
+    v("gravity", gravity, "m/s^2, local gravity magnitude");
+    v("window_seconds", window_seconds, "s of integrated orientations kept for queries");
+    v("max_gap_seconds", max_gap_seconds,
+      "s between IMU samples above which the stream is interrupted: no orientation inside the gap, "
+      "roll/pitch re-levelled after it, yaw carried over");
+  }
+  // Empty when usable, else "imu.<field>: must be ... (got ...)".
+  std::string validate() const;
+
+  Eigen::Vector3d gyroBias() const {
+    return Eigen::Vector3d(gyro_bias_x, gyro_bias_y, gyro_bias_z);
+  }
+};
+
+}  // namespace imt

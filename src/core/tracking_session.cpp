@@ -25,7 +25,7 @@ TrackingSession::TrackingSession(const PipelineOptions& options, Mode mode)
       mode_(mode),
       analyzer_(options.motion_analysis),
       regions_(options.region_tracking, mode == Mode::kOffline ? 0.0 : options.cache_seconds),
-      targets_(options.planar_tracking),
+      targets_(options.planar_tracking, &regions_.cache()),
       anchors_(std::make_unique<AnchorManager>(options.anchors, imuOptionsFor(options.imu, mode),
                                                options.default_hfov_deg, &regions_)) {
   Eigen::Quaterniond q;
@@ -110,12 +110,12 @@ void TrackingSession::track(Pending frame) {
   anchors_->update();
   const auto t1 = Clock::now();
   addTime("region_tracking", std::chrono::duration<double>(t1 - t0).count());
-  r.targets = targets_.update(regions_.cache());
+  r.targets = targets_.update();
   const auto t2 = Clock::now();
   addTime("planar_tracking", std::chrono::duration<double>(t2 - t1).count());
   if (anchors_->size() > 0) {
     std::string error;  // the frame was just cached: its stamp is always found
-    anchors_->stateAt(frame.md.stamp, {}, &r.anchors, &error);
+    anchors_->statesAt(frame.md.stamp, {}, &r.anchors, &error);
   }
   addTime("anchors", secondsSince(t2));
   if (mode_ == Mode::kLive) {
@@ -172,20 +172,20 @@ bool TrackingSession::seekRegions(double stamp, const std::vector<uint32_t>& ids
     }
   }
   std::vector<RegionState> all;
-  if (!regions_.seek(stamp, ids, &all, error)) return false;
+  if (!regions_.statesAt(stamp, ids, &all, error)) return false;
   *states = ids.empty() ? userRegions(std::move(all)) : std::move(all);
   return true;
 }
 
 size_t TrackingSession::regionCount() const {
   // The anchors' own regions are counted by the region manager too.
-  return regions_.regionCount() - anchors_->size();
+  return regions_.size() - anchors_->size();
 }
 
 bool TrackingSession::addPlanarTarget(uint32_t id, double stamp, const std::array<cv::Point2d, 4>& corners,
                                       double width_m, double height_m, uint32_t* assigned_id, std::string* error) {
   flushFor(stamp);
-  return targets_.add(id, stamp, corners, width_m, height_m, camera(), regions_.cache(), assigned_id, error);
+  return targets_.add(id, stamp, corners, width_m, height_m, camera(), assigned_id, error);
 }
 
 bool TrackingSession::removePlanarTarget(uint32_t id, std::string* error) { return targets_.remove(id, error); }
@@ -206,13 +206,8 @@ bool TrackingSession::statesAt(double stamp, FrameResult* result, std::string* e
   r.motion = cache.at(seq);
   r.camera = camera();
   if (regionCount() > 0 && !seekRegions(r.motion.stamp, {}, &r.regions, error)) return false;
-  std::vector<uint32_t> ids = targets_.ids();
-  for (uint32_t id : ids) {
-    PlanarTargetState st;
-    if (!targets_.stateAt(id, seq, cache, &st, error)) return false;
-    r.targets.push_back(st);
-  }
-  if (anchors_->size() > 0 && !anchors_->stateAt(r.motion.stamp, {}, &r.anchors, error)) return false;
+  if (targets_.size() > 0 && !targets_.statesAt(r.motion.stamp, {}, &r.targets, error)) return false;
+  if (anchors_->size() > 0 && !anchors_->statesAt(r.motion.stamp, {}, &r.anchors, error)) return false;
   *result = std::move(r);
   return true;
 }

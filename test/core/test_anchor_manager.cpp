@@ -90,16 +90,16 @@ TEST(AnchorManager, BadRequestsAreRefusedWithAMessage) {
   EXPECT_FALSE(f.anchors.remove(9, &err));
   EXPECT_EQ(err, "unknown anchor id 9");
   std::vector<AnchorState> st;
-  EXPECT_FALSE(f.anchors.stateAt(0, {9}, &st, &err));
+  EXPECT_FALSE(f.anchors.statesAt(0, {9}, &st, &err));
   EXPECT_EQ(err, "unknown anchor id 9");
-  EXPECT_FALSE(f.anchors.stateAt(1.0, {}, &st, &err));
+  EXPECT_FALSE(f.anchors.statesAt(1.0, {}, &st, &err));
   EXPECT_NE(err.find("outside the motion-data cache"), std::string::npos) << err;
   // id 0 picks a free id; a removed anchor's region goes with it.
   ASSERT_TRUE(f.anchors.add(0, 0, {200, 100}, 2.0, &id, &err)) << err;
   EXPECT_EQ(id, 1u);
-  EXPECT_EQ(f.regions.regionCount(), 2u);
+  EXPECT_EQ(f.regions.size(), 2u);
   EXPECT_TRUE(f.anchors.remove(3, &err));
-  EXPECT_EQ(f.regions.regionCount(), 1u);
+  EXPECT_EQ(f.regions.size(), 1u);
   EXPECT_FALSE(f.anchors.contains(3));
 }
 
@@ -143,7 +143,7 @@ TEST(AnchorManager, StillCameraGivesTheTapAndTheDepth) {
   std::string err;
   ASSERT_TRUE(f.anchors.add(0, 100.0 + 5 / 30.0, {400, 300}, 2.5, &id, &err)) << err;
   std::vector<AnchorState> st;
-  ASSERT_TRUE(f.anchors.stateAt(0, {}, &st, &err)) << err;
+  ASSERT_TRUE(f.anchors.statesAt(0, {}, &st, &err)) << err;
   ASSERT_EQ(st.size(), 1u);
   EXPECT_NEAR(st[0].pixel.x, 400, 1e-9);
   EXPECT_NEAR(st[0].pixel.y, 300, 1e-9);
@@ -158,7 +158,7 @@ TEST(AnchorManager, StillCameraGivesTheTapAndTheDepth) {
   EXPECT_TRUE(st[0].T_cam_anchor.linear().col(2).isApprox(Eigen::Vector3d::UnitZ(), 1e-6))
       << st[0].T_cam_anchor.linear();
   // Backwards to a frame before the placement: the same (still camera).
-  ASSERT_TRUE(f.anchors.stateAt(100.0 + 1 / 30.0, {id}, &st, &err)) << err;
+  ASSERT_TRUE(f.anchors.statesAt(100.0 + 1 / 30.0, {id}, &st, &err)) << err;
   EXPECT_NEAR(st[0].pixel.x, 400, 1e-9);
   EXPECT_NEAR(st[0].stamp, 100.0 + 1 / 30.0, 1e-12);
 }
@@ -174,18 +174,18 @@ TEST(AnchorManager, FramesWaitForTheImuThenGiveUp) {
   const double t4 = 100.0 + 4 / 30.0;
   EXPECT_TRUE(f.anchors.ready(t4)) << "no IMU at all: nothing to wait for";
   std::vector<AnchorState> st;
-  ASSERT_TRUE(f.anchors.stateAt(t4, {}, &st, &err));
+  ASSERT_TRUE(f.anchors.statesAt(t4, {}, &st, &err));
   EXPECT_EQ(st[0].status, AnchorStatus::kNoImu);
   EXPECT_EQ(st[0].reason, "no IMU sample");
   EXPECT_NEAR(st[0].T_cam_anchor.translation().norm(), 1.0, 1e-9);  // default depth
   // The IMU starts, behind the frames.
   f.imu(100.0, t4 - 0.02);
   EXPECT_FALSE(f.anchors.ready(t4));
-  ASSERT_TRUE(f.anchors.stateAt(t4, {}, &st, &err));
+  ASSERT_TRUE(f.anchors.statesAt(t4, {}, &st, &err));
   EXPECT_EQ(st[0].status, AnchorStatus::kNoImu);
   f.imu(t4 - 0.015, t4 + 0.01);
   EXPECT_TRUE(f.anchors.ready(t4));
-  ASSERT_TRUE(f.anchors.stateAt(t4, {}, &st, &err));
+  ASSERT_TRUE(f.anchors.statesAt(t4, {}, &st, &err));
   EXPECT_EQ(st[0].status, AnchorStatus::kTracked) << st[0].reason;
   // The IMU stops: later frames wait 0.1 s of frames, then go.
   f.frames(5, 8);
@@ -193,7 +193,7 @@ TEST(AnchorManager, FramesWaitForTheImuThenGiveUp) {
   EXPECT_FALSE(f.anchors.ready(t5));  // newest frame 7: 2/30 s later
   f.frames(8, 10);                    // newest frame 9: 4/30 s later
   EXPECT_TRUE(f.anchors.ready(t5));
-  ASSERT_TRUE(f.anchors.stateAt(t5, {}, &st, &err));
+  ASSERT_TRUE(f.anchors.statesAt(t5, {}, &st, &err));
   EXPECT_EQ(st[0].status, AnchorStatus::kNoImu);
   EXPECT_NE(st[0].reason.find("no IMU orientation at stamp"), std::string::npos) << st[0].reason;
 }
@@ -219,13 +219,13 @@ TEST(AnchorManager, ImuDropsRestartsAndFrameResets) {
   EXPECT_EQ(f.anchors.imu().newestStamp(), 90.0);
   // The anchor's frame is no longer covered by the restarted IMU: no_imu, still tracked in 2D.
   std::vector<AnchorState> st;
-  ASSERT_TRUE(f.anchors.stateAt(0, {}, &st, &err));
+  ASSERT_TRUE(f.anchors.statesAt(0, {}, &st, &err));
   EXPECT_EQ(st[0].status, AnchorStatus::kNoImu);
   // Frames going back in time: the region manager resets, the anchors go with it.
   f.regions.update(still(0));
   f.anchors.update();
   EXPECT_EQ(f.anchors.size(), 0u);
-  EXPECT_EQ(f.regions.regionCount(), 0u);
+  EXPECT_EQ(f.regions.size(), 0u);
 }
 
 struct WalkFigures {
@@ -300,7 +300,7 @@ void runWalk(WalkFigures* out, OutOfView mode = OutOfView::kVisual) {
       const int k = pending.front();
       pending.erase(pending.begin());
       std::vector<AnchorState> st;
-      ASSERT_TRUE(anchors.stateAt(scene->frameStamp(k), {}, &st, &err)) << err;
+      ASSERT_TRUE(anchors.statesAt(scene->frameStamp(k), {}, &st, &err)) << err;
       const FrameTruth truth = scene->frameTruth(k);
       const FrameTruth::Anchor& a = truth.anchors[0];
       for (const AnchorState& s : st) {
@@ -434,7 +434,7 @@ TEST(AnchorManager, AnchorOnAMovingCardFollowsIt) {
       continue;
     }
     std::vector<AnchorState> st;
-    ASSERT_TRUE(anchors.stateAt(t, {}, &st, &e)) << e;
+    ASSERT_TRUE(anchors.statesAt(t, {}, &st, &e)) << e;
     ASSERT_EQ(st.size(), 1u);
     // Where the wall point first under the tap is now (the background's motion).
     ASSERT_TRUE(truth.background_homography.has_value());

@@ -81,17 +81,19 @@ struct PlanarFigures {
 // The poster tracked from frame 0 (the truth's corners: image pixels) with
 // camera model `k`, scored against the truth on every later frame.
 PlanarFigures trackPoster(const Rendered& r, const CameraModel& k, const char* label) {
-  PlanarTargetManager m{PlanarTargetOptions()};
+  PlanarTargetManager m{PlanarTargetOptions(), r.cache.get()};
   const FrameTruth::Target& t0 = r.truth[0].targets.at(0);
   uint32_t id = 0;
   std::string err;
   EXPECT_TRUE(m.add(t0.id, r.cache->at(r.cache->firstSeq()).stamp, t0.corners, t0.width_m,
-                    t0.height_m, k, *r.cache, &id, &err))
+                    t0.height_m, k, &id, &err))
       << err;
   std::vector<double> corners, rot;
   for (uint64_t seq = r.cache->firstSeq() + 1; seq <= r.cache->lastSeq(); ++seq) {
-    PlanarTargetState s;
-    EXPECT_TRUE(m.stateAt(id, seq, *r.cache, &s, &err)) << err;
+    std::vector<PlanarTargetState> states;
+    EXPECT_TRUE(m.statesAt(r.cache->at(seq).stamp, {id}, &states, &err)) << err;
+    if (states.empty()) continue;
+    const PlanarTargetState& s = states[0];
     const FrameTruth::Target& t = r.truth[seq - r.cache->firstSeq()].targets.at(0);
     corners.push_back(cornerRms(s.corners, t.corners));
     rot.push_back(angleDeg(t.T_cam_target.linear(), s.T_cam_target.linear()));
@@ -170,7 +172,7 @@ AnchorFigures trackAnchor(const Rendered& r, const CameraModel& k, const char* l
       EXPECT_TRUE(anchors.add(1, 0, a0.pixel, a0.T_cam_anchor.translation().norm(), &id, &err)) << err;
     }
     std::vector<AnchorState> st;
-    EXPECT_TRUE(anchors.stateAt(md.stamp, {}, &st, &err)) << err;
+    EXPECT_TRUE(anchors.statesAt(md.stamp, {}, &st, &err)) << err;
     const FrameTruth::Anchor& a = r.truth[seq - r.cache->firstSeq()].anchors.at(0);
     if (st.size() != 1 || !a.in_view) continue;
     const AnchorState& s = st[0];

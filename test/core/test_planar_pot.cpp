@@ -63,7 +63,7 @@ PotResult runPot(const std::string& seq, int frames, const std::string& model) {
   cache.setImageBudget(size_t(1) << 30);  // the appearance alignment uses every frame
   PlanarTargetOptions po;
   po.model = model;
-  PlanarTargetManager targets(po);
+  PlanarTargetManager targets(po, &cache);
   const std::array<cv::Point2d, 4> c0 = pot.corners(1);
   double seconds = 0, tracking_seconds = 0;  // wall time: analysis + tracking; tracking alone
   double cpu_seconds = 0,
@@ -86,9 +86,9 @@ PotResult runPot(const std::string& seq, int frames, const std::string& model) {
           CameraModel::fromFieldOfView(gray.cols, gray.rows, kFieldOfViewDeg);
       const double aspect = rectifiedAspect(c0, k);
       EXPECT_GT(aspect, 0);
-      EXPECT_TRUE(targets.add(0, 0, c0, 1.0, aspect, k, cache, &id, &err)) << err;
+      EXPECT_TRUE(targets.add(0, 0, c0, 1.0, aspect, k, &id, &err)) << err;
     } else {
-      states = targets.update(cache);
+      states = targets.update();
     }
     const auto t2 = std::chrono::steady_clock::now();
     seconds += std::chrono::duration<double>(t2 - t0).count();

@@ -34,7 +34,7 @@ void trackRendered(const SceneGenerator& scene, int add_frame, Visit visit) {
   MotionAnalyzer analyzer{MotionAnalysisOptions()};
   MotionCache cache(0.0);
   cache.setImageBudget(size_t(1) << 30);
-  PlanarTargetManager targets{PlanarTargetOptions()};
+  PlanarTargetManager targets{PlanarTargetOptions(), &cache};
   uint32_t id = 0;
   std::string err;
   for (int i = 0; i < scene.frameCount(); ++i) {
@@ -45,12 +45,12 @@ void trackRendered(const SceneGenerator& scene, int add_frame, Visit visit) {
     const FrameTruth truth = scene.frameTruth(i);
     const FrameTruth::Target& t = truth.targets.at(0);
     if (i == add_frame) {
-      ASSERT_TRUE(targets.add(t.id, scene.frameStamp(i), t.corners, t.width_m, t.height_m, scene.intrinsics(),
-                              cache, &id, &err))
+      ASSERT_TRUE(targets.add(t.id, scene.frameStamp(i), t.corners, t.width_m, t.height_m, scene.intrinsics(), &id,
+                              &err))
           << err;
       continue;
     }
-    const std::vector<PlanarTargetState> states = targets.update(cache);
+    const std::vector<PlanarTargetState> states = targets.update();
     ASSERT_EQ(states.size(), 1u);
     visit(i, t, states[0], cornerRms(states[0].corners, t.corners));
   }
@@ -87,17 +87,19 @@ class PosterOrbit : public ::testing::Test {
   static Errors track(const std::string& model) {
     PlanarTargetOptions opt;
     opt.model = model;
-    PlanarTargetManager m(opt);
+    PlanarTargetManager m(opt, cache_);
     const FrameTruth::Target& t0 = truth_[0].targets.at(0);
     uint32_t id;
     std::string err;
     EXPECT_TRUE(m.add(t0.id, cache_->at(cache_->firstSeq()).stamp, t0.corners, t0.width_m,
-                      t0.height_m, scene_->intrinsics(), *cache_, &id, &err))
+                      t0.height_m, scene_->intrinsics(), &id, &err))
         << err;
     Errors e;
     for (uint64_t seq = cache_->firstSeq() + 1; seq <= cache_->lastSeq(); ++seq) {
-      PlanarTargetState s;
-      EXPECT_TRUE(m.stateAt(id, seq, *cache_, &s, &err)) << err;
+      std::vector<PlanarTargetState> states;
+      EXPECT_TRUE(m.statesAt(cache_->at(seq).stamp, {id}, &states, &err)) << err;
+      if (states.empty()) continue;
+      const PlanarTargetState& s = states[0];
       const FrameTruth::Target& t = truth_[seq - cache_->firstSeq()].targets.at(0);
       e.corners.push_back(cornerRms(s.corners, t.corners));
       if (std::getenv("IMT_TEST_TRACE"))  // per-frame trace for tuning

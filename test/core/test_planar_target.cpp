@@ -218,17 +218,18 @@ TEST(PlanarTarget, ChainedHomographyForComparison) {
 TEST(PlanarTargetManager, TargetGivenMidSequenceIsTrackedBothWays) {
   const Scene sc = makeScene(120, false);
   MotionCache cache(0.0);  // keep everything, as track_bag does
-  PlanarTargetManager m{PlanarTargetOptions()};
+  PlanarTargetManager m{PlanarTargetOptions(), &cache};
   std::string err;
   for (const MotionData& md : sc.md) ASSERT_TRUE(cache.push(md, &err));
   uint32_t id = 0;
-  ASSERT_TRUE(m.add(0, sc.md[60].stamp, sc.corners[60], kTw, kTh, intrinsics(), cache, &id, &err))
+  ASSERT_TRUE(m.add(0, sc.md[60].stamp, sc.corners[60], kTw, kTh, intrinsics(), &id, &err))
       << err;
   EXPECT_EQ(id, 1u);
   std::vector<double> e;
   for (uint64_t seq = cache.firstSeq(); seq <= cache.lastSeq(); ++seq) {
-    PlanarTargetState s;
-    ASSERT_TRUE(m.stateAt(id, seq, cache, &s, &err)) << err;
+    std::vector<PlanarTargetState> states;
+    ASSERT_TRUE(m.statesAt(cache.at(seq).stamp, {id}, &states, &err)) << err;
+    const PlanarTargetState& s = states.at(0);
     EXPECT_DOUBLE_EQ(s.stamp, cache.at(seq).stamp);
     e.push_back(cornerRms(s.corners, sc.corners[seq - cache.firstSeq()]));
   }
@@ -236,7 +237,7 @@ TEST(PlanarTargetManager, TargetGivenMidSequenceIsTrackedBothWays) {
   EXPECT_LT(percentile(e, 0.5), 0.5);
   EXPECT_LT(e.front(), 1.0);
   EXPECT_LT(e.back(), 1.0);
-  EXPECT_FALSE(m.add(1, 0, sc.corners[60], kTw, kTh, intrinsics(), cache, &id, &err));
+  EXPECT_FALSE(m.add(1, 0, sc.corners[60], kTw, kTh, intrinsics(), &id, &err));
   EXPECT_NE(err.find("already tracked"), std::string::npos);
   EXPECT_FALSE(m.remove(9, &err));
   EXPECT_NE(err.find("unknown planar target id 9"), std::string::npos);
@@ -244,18 +245,18 @@ TEST(PlanarTargetManager, TargetGivenMidSequenceIsTrackedBothWays) {
 
 TEST(PlanarTargetManager, BadRequestsAreNamedEvenBeforeAnyFrame) {
   MotionCache empty(10.0);
-  PlanarTargetManager m{PlanarTargetOptions()};
+  PlanarTargetManager m{PlanarTargetOptions(), &empty};
   uint32_t id;
   std::string err;
   const std::array<cv::Point2d, 4> bowtie = {
       cv::Point2d(100, 100), {200, 200}, {200, 100}, {100, 200}};
-  EXPECT_FALSE(m.add(0, 0, bowtie, 0.3, 0.2, intrinsics(), empty, &id, &err));
+  EXPECT_FALSE(m.add(0, 0, bowtie, 0.3, 0.2, intrinsics(), &id, &err));
   EXPECT_NE(err.find("convex"), std::string::npos) << err;
   const std::array<cv::Point2d, 4> good = {
       cv::Point2d(100, 100), {200, 100}, {200, 180}, {100, 180}};
-  EXPECT_FALSE(m.add(0, 0, good, -1, 0.2, intrinsics(), empty, &id, &err));
+  EXPECT_FALSE(m.add(0, 0, good, -1, 0.2, intrinsics(), &id, &err));
   EXPECT_NE(err.find("size must be positive"), std::string::npos) << err;
-  EXPECT_FALSE(m.add(0, 0, good, 0.3, 0.2, intrinsics(), empty, &id, &err));
+  EXPECT_FALSE(m.add(0, 0, good, 0.3, 0.2, intrinsics(), &id, &err));
   EXPECT_NE(err.find("no motion data"), std::string::npos) << err;
 }
 

@@ -41,7 +41,7 @@ TEST(RegionManager, RegionAddedInThePastCatchesUpAndSeeksBothWays) {
   double sum = 0;
   for (int k = 0; k < 60; ++k) {
     std::vector<RegionState> s;
-    ASSERT_TRUE(m.seek(md[k].stamp, {}, &s, &err)) << err;
+    ASSERT_TRUE(m.statesAt(md[k].stamp, {}, &s, &err)) << err;
     ASSERT_EQ(s.size(), 1u);
     EXPECT_DOUBLE_EQ(s[0].stamp, md[k].stamp);
     sum += iou(s[0].box, w.box(0, k));
@@ -130,7 +130,7 @@ TEST_P(RegionManagerRejects, WithAMessage) {
   const BadAdd& p = GetParam();
   EXPECT_FALSE(m.add(p.id, md.back().stamp + p.stamp_offset, p.box, &id, &err));
   EXPECT_NE(err.find(p.expected), std::string::npos) << err;
-  EXPECT_EQ(m.regionCount(), 1u);
+  EXPECT_EQ(m.size(), 1u);
 }
 
 INSTANTIATE_TEST_SUITE_P(
@@ -163,7 +163,7 @@ TEST(RegionManager, UnknownIdsAreNamed) {
   EXPECT_FALSE(m.remove(42, &err));
   EXPECT_NE(err.find("unknown region id 42"), std::string::npos);
   std::vector<RegionState> s;
-  EXPECT_FALSE(m.seek(1000, {42}, &s, &err));
+  EXPECT_FALSE(m.statesAt(1000, {42}, &s, &err));
   EXPECT_NE(err.find("42"), std::string::npos);
 }
 
@@ -177,7 +177,7 @@ TEST(RegionManager, TimeGoingBackwardsClearsEverything) {
   ASSERT_TRUE(m.add(0, 0, w.box(0, 9), &id, &err));
   m.update(md[0]);  // a bag loop
   EXPECT_NE(m.lastReset().find("does not follow"), std::string::npos);
-  EXPECT_EQ(m.regionCount(), 0u);
+  EXPECT_EQ(m.size(), 0u);
   EXPECT_EQ(m.cachedFrames(), 1u);
 }
 

@@ -49,7 +49,7 @@ TEST_P(RegionPot, TargetBoxIsFollowed) {
   for (int f = 2; f <= pot.frames(); ++f) {
     if (!pot.scored(f)) continue;
     std::vector<RegionState> s;
-    ASSERT_TRUE(regions.seek(f / 30.0, {id}, &s, &err)) << err;
+    ASSERT_TRUE(regions.statesAt(f / 30.0, {id}, &s, &err)) << err;
     ASSERT_EQ(s.size(), 1u);
     const double iou = s[0].status == RegionStatus::kLost ? 0.0 : test::iouClipped(s[0].box, pot.box(f), size);
     sum += iou;

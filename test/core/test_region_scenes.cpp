@@ -50,7 +50,7 @@ double meanRegionIou(RegionManager& m, const std::vector<FrameTruth>& truth, cv:
   int n = 0;
   for (const FrameTruth& f : truth) {
     std::vector<RegionState> s;
-    EXPECT_TRUE(m.seek(f.stamp, {id}, &s, &err)) << err;
+    EXPECT_TRUE(m.statesAt(f.stamp, {id}, &s, &err)) << err;
     const FrameTruth::Region* r = region(f, id);
     if (!r || r->visible_fraction < 0.5 || s.empty()) continue;
     sum += s[0].status == RegionStatus::kLost ? 0.0 : iouClipped(s[0].box, r->box, size);

@@ -308,7 +308,7 @@ TEST(TrackingSession, InvalidOptionsAreRefusedAtConstruction) {
   EXPECT_THROW(MotionAnalyzer{o.motion_analysis}, std::invalid_argument);
   o = PipelineOptions();
   o.planar_tracking.min_points = -1;
-  EXPECT_THROW(PlanarTargetManager{o.planar_tracking}, std::invalid_argument);
+  EXPECT_THROW((PlanarTargetManager{o.planar_tracking, nullptr}), std::invalid_argument);
 }
 
 TEST(TrackingSession, ItemsAreRefusedWithAMessage) {

@@ -267,7 +267,13 @@ AnchorState AnchorManager::stateOf(Anchor& a, const RegionState& r, double stamp
   return s;
 }
 
-bool AnchorManager::stateAt(double stamp, const std::vector<uint32_t>& ids,
+std::vector<uint32_t> AnchorManager::ids() const {
+  std::vector<uint32_t> out;
+  for (const auto& [id, a] : anchors_) out.push_back(id);
+  return out;
+}
+
+bool AnchorManager::statesAt(double stamp, const std::vector<uint32_t>& ids,
                             std::vector<AnchorState>* states, std::string* error) {
   std::vector<Anchor*> wanted;
   if (ids.empty()) {
@@ -292,7 +298,7 @@ bool AnchorManager::stateAt(double stamp, const std::vector<uint32_t>& ids,
   states->clear();
   for (Anchor* a : wanted) {
     std::vector<RegionState> r;
-    if (!regions_->seek(frame_stamp, {a->region_id}, &r, error)) {
+    if (!regions_->statesAt(frame_stamp, {a->region_id}, &r, error)) {
       *error = "anchor " + std::to_string(a->id) + ": " + *error;
       return false;
     }

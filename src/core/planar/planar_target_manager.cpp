@@ -4,9 +4,11 @@
 
 namespace imt {
 
-PlanarTargetManager::PlanarTargetManager(const PlanarTargetOptions& options) : options_(validated(options)) {}
+PlanarTargetManager::PlanarTargetManager(const PlanarTargetOptions& options, const MotionCache* cache)
+    : options_(validated(options)), cache_(cache) {}
 
-const PlanarTargetState& PlanarTargetManager::advance(Target& t, uint64_t seq, const MotionCache& cache) {
+const PlanarTargetState& PlanarTargetManager::advance(Target& t, uint64_t seq) {
+  const MotionCache& cache = *cache_;
   Eigen::Matrix3d H;
   while (t.seq_fwd < seq) {
     const bool valid = cache.cameraMotion(t.seq_fwd, t.seq_fwd + 1, &H);
@@ -24,7 +26,8 @@ const PlanarTargetState& PlanarTargetManager::advance(Target& t, uint64_t seq, c
   return t.states.at(seq);
 }
 
-std::vector<PlanarTargetState> PlanarTargetManager::update(const MotionCache& cache) {
+std::vector<PlanarTargetState> PlanarTargetManager::update() {
+  const MotionCache& cache = *cache_;
   std::vector<PlanarTargetState> out;
   if (cache.empty()) return out;
   for (auto it = targets_.begin(); it != targets_.end();) {
@@ -33,7 +36,7 @@ std::vector<PlanarTargetState> PlanarTargetManager::update(const MotionCache& ca
       it = targets_.erase(it);
       continue;
     }
-    out.push_back(advance(t, cache.lastSeq(), cache));
+    out.push_back(advance(t, cache.lastSeq()));
     while (!t.states.empty() && t.states.begin()->first < cache.firstSeq()) t.states.erase(t.states.begin());
     if (t.seq_bwd < cache.firstSeq()) t.seq_bwd = cache.firstSeq();
     ++it;
@@ -42,8 +45,9 @@ std::vector<PlanarTargetState> PlanarTargetManager::update(const MotionCache& ca
 }
 
 bool PlanarTargetManager::add(uint32_t id, double stamp, const std::array<cv::Point2d, 4>& corners,
-                              double width_m, double height_m, const CameraModel& k,
-                              const MotionCache& cache, uint32_t* assigned_id, std::string* error) {
+                              double width_m, double height_m, const CameraModel& k, uint32_t* assigned_id,
+                              std::string* error) {
+  const MotionCache& cache = *cache_;
   if (id != 0 && targets_.count(id)) {
     *error = "planar target id " + std::to_string(id) + " is already tracked";
     return false;
@@ -68,7 +72,7 @@ bool PlanarTargetManager::add(uint32_t id, double stamp, const std::array<cv::Po
   t.seq_fwd = t.seq_bwd = seq;
   t.states[seq] = t.forward->state();
   Target& stored = targets_[id] = std::move(t);
-  advance(stored, cache.lastSeq(), cache);
+  advance(stored, cache.lastSeq());
   *assigned_id = id;
   return true;
 }
@@ -87,18 +91,18 @@ bool PlanarTargetManager::remove(uint32_t id, std::string* error) {
   return true;
 }
 
-bool PlanarTargetManager::stateAt(uint32_t id, uint64_t seq, const MotionCache& cache,
-                                  PlanarTargetState* state, std::string* error) {
-  const auto it = targets_.find(id);
-  if (it == targets_.end()) {
-    *error = "unknown planar target id " + std::to_string(id);
-    return false;
+bool PlanarTargetManager::statesAt(double stamp, const std::vector<uint32_t>& ids,
+                                   std::vector<PlanarTargetState>* states, std::string* error) {
+  for (uint32_t id : ids) {
+    if (!targets_.count(id)) {
+      *error = "unknown planar target id " + std::to_string(id);
+      return false;
+    }
   }
-  if (cache.empty() || seq < cache.firstSeq() || seq > cache.lastSeq()) {
-    *error = "frame outside the motion-data cache";
-    return false;
-  }
-  *state = advance(it->second, seq, cache);
+  uint64_t seq;
+  if (!cache_->find(stamp, &seq, error)) return false;
+  states->clear();
+  for (uint32_t id : ids.empty() ? this->ids() : ids) states->push_back(advance(targets_.at(id), seq));
   return true;
 }
 

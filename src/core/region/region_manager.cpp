@@ -143,7 +143,13 @@ bool RegionManager::remove(uint32_t id, std::string* error) {
   return true;
 }
 
-bool RegionManager::seek(double stamp, const std::vector<uint32_t>& ids,
+std::vector<uint32_t> RegionManager::ids() const {
+  std::vector<uint32_t> out;
+  for (const auto& [id, r] : regions_) out.push_back(id);
+  return out;
+}
+
+bool RegionManager::statesAt(double stamp, const std::vector<uint32_t>& ids,
                          std::vector<RegionState>* states, std::string* error) {
   for (uint32_t id : ids) {
     if (!regions_.count(id)) {

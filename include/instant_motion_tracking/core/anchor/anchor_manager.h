@@ -32,7 +32,7 @@
 //   on IMU:   if (anchors.addImu(sample, &why) == ImuInput::kDropped) warn(why);
 //   on frame: queue md; while (anchors.ready(oldest_queued, newest_queued))
 //               { regions.update(oldest md); anchors.update();
-//                 anchors.stateAt(its stamp, {}, &states, &err); publish(states); pop; }
+//                 anchors.statesAt(its stamp, {}, &states, &err); publish(states); pop; }
 //   anchors.add(0, stamp, {u, v}, depth, &id, &error);   // stamp 0 = the latest frame
 // Threading: not thread-safe; callers serialise (the nodelet holds a mutex).
 #pragma once
@@ -122,7 +122,7 @@ class AnchorManager {
   void clear();
 
   // The states of `ids` (empty = all, in id order) at a cached `stamp` (0 = latest).
-  bool stateAt(double stamp, const std::vector<uint32_t>& ids, std::vector<AnchorState>* states,
+  bool statesAt(double stamp, const std::vector<uint32_t>& ids, std::vector<AnchorState>* states,
                std::string* error);
   // Whether the frame at `stamp` can be given its anchors now (live): no
   // anchors, no IMU ever seen, the IMU past the stamp, or the newest frame
@@ -133,6 +133,7 @@ class AnchorManager {
   bool ready(double stamp, double newest_frame_stamp) const;
 
   size_t size() const { return anchors_.size(); }
+  std::vector<uint32_t> ids() const;  // in id order
   bool contains(uint32_t id) const { return anchors_.count(id) > 0; }
   const AnchorOptions& options() const { return options_; }
 

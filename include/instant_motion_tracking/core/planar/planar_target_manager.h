@@ -5,11 +5,11 @@
 // region manager in the pipeline). Frames the cache keeps an image of are
 // also aligned with each target's appearance (PlanarTargetOptions::refine).
 //
-// Usage:
-//   imt::PlanarTargetManager targets(options.planar_tracking);
-//   cache.push(md, &reset);  auto states = targets.update(cache);
-//   targets.add(0, stamp, corners, 0.6, 0.45, intrinsics, cache, &id, &error);
-//   targets.stateAt(id, seq, cache, &state);     // any cached frame
+// Usage (the same shape as RegionManager and AnchorManager):
+//   imt::PlanarTargetManager targets(options.planar_tracking, &cache);
+//   cache.push(md, &reset);  auto states = targets.update();
+//   targets.add(0, stamp, corners, 0.6, 0.45, camera, &id, &error);
+//   targets.statesAt(stamp, {id}, &states, &error);   // any cached frame
 // Threading: not thread-safe.
 #pragma once
 
@@ -25,19 +25,21 @@ namespace imt {
 
 class PlanarTargetManager {
  public:
-  // Throws std::invalid_argument on invalid options (validate()).
-  explicit PlanarTargetManager(const PlanarTargetOptions& options);
+  // `cache` (the caller's, shared with the regions in a TrackingSession) must
+  // outlive the manager. Throws std::invalid_argument on invalid options.
+  PlanarTargetManager(const PlanarTargetOptions& options, const MotionCache* cache);
 
-  // Advances every target to the newest frame of `cache`.
-  std::vector<PlanarTargetState> update(const MotionCache& cache);
+  // Advances every target to the newest frame of the cache.
+  std::vector<PlanarTargetState> update();
+  // A target given by its corners at the cached frame nearest `stamp` (0 =
+  // the latest), seen through camera `k`; id 0 chooses a free id.
   bool add(uint32_t id, double stamp, const std::array<cv::Point2d, 4>& corners, double width_m,
-           double height_m, const CameraModel& k, const MotionCache& cache, uint32_t* assigned_id,
-           std::string* error);
+           double height_m, const CameraModel& k, uint32_t* assigned_id, std::string* error);
   bool remove(uint32_t id, std::string* error);
-  // The state of target `id` at cached frame `seq`; false for an unknown id
-  // or a frame outside the cache.
-  bool stateAt(uint32_t id, uint64_t seq, const MotionCache& cache, PlanarTargetState* state,
-               std::string* error);
+  // The states of `ids` (empty = all, in id order) at the cached frame
+  // nearest `stamp`; false for an unknown id or a stamp outside the cache.
+  bool statesAt(double stamp, const std::vector<uint32_t>& ids, std::vector<PlanarTargetState>* states,
+                std::string* error);
   void clear() { targets_.clear(); }
   size_t size() const { return targets_.size(); }
   std::vector<uint32_t> ids() const;  // in id order
@@ -48,9 +50,10 @@ class PlanarTargetManager {
     uint64_t seq_fwd = 0, seq_bwd = 0;
     std::map<uint64_t, PlanarTargetState> states;
   };
-  const PlanarTargetState& advance(Target& t, uint64_t seq, const MotionCache& cache);
+  const PlanarTargetState& advance(Target& t, uint64_t seq);
 
   PlanarTargetOptions options_;
+  const MotionCache* cache_;
   std::map<uint32_t, Target> targets_;
 };
 

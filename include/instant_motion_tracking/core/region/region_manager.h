@@ -2,7 +2,7 @@
 //
 // The cache keeps the last `cache_seconds` of motion data. A region can be
 // added at any cached stamp: it is tracked forward to the latest frame at
-// once, and backwards on demand. seek() returns the regions' states at any
+// once, and backwards on demand. statesAt() returns the regions' states at any
 // cached stamp. Per-region work is proportional to the features inside it;
 // the motion analysis is shared by all regions.
 //
@@ -10,9 +10,9 @@
 //   imt::RegionManager regions(options.region_tracking, options.cache_seconds);
 //   for each frame: auto states = regions.update(motion_data);
 //   regions.add(0, stamp_in_the_past, box, &id, &error);
-//   regions.seek(stamp, {}, &states, &error);
+//   regions.statesAt(stamp, {}, &states, &error);
 // Offline (track_bag): cache_seconds <= 0 keeps everything; add every region
-// after the motion analysis pass, then seek() each frame's stamp.
+// after the motion analysis pass, then statesAt() each frame's stamp.
 // A camera-motion fallback (setCameraFallback, e.g. the IMU rotation that
 // AnchorManager installs) stands in for frames whose own camera model is
 // invalid, so regions out of view stay predicted through them.
@@ -50,8 +50,8 @@ class RegionManager {
            std::string* error);
   bool remove(uint32_t id, std::string* error);
   // The states of `ids` (empty = all) at a cached `stamp`.
-  bool seek(double stamp, const std::vector<uint32_t>& ids, std::vector<RegionState>* states,
-            std::string* error);
+  bool statesAt(double stamp, const std::vector<uint32_t>& ids, std::vector<RegionState>* states,
+                std::string* error);
   // The states at the latest frame.
   std::vector<RegionState> latest() const;
 
@@ -67,7 +67,8 @@ class RegionManager {
   size_t cachedFrames() const { return cache_.size(); }
   double oldestStamp() const { return cache_.oldestStamp(); }
   double newestStamp() const { return cache_.newestStamp(); }
-  size_t regionCount() const { return regions_.size(); }
+  size_t size() const { return regions_.size(); }
+  std::vector<uint32_t> ids() const;  // in id order
   const std::string& lastReset() const { return last_reset_; }
 
  private:

@@ -11,7 +11,7 @@ IMT_BUILD_TYPE=${IMT_BUILD_TYPE:-RelWithDebInfo}
 IMT_PACKAGES=(
   build-essential cmake
   ros-base-dev ros-core-python-dev python3-rostest rosbash
-  libimage-transport-dev libcv-bridge-dev libtf2-ros-dev libtf2-geometry-msgs-dev libtf2-eigen-dev
+  libimage-transport-dev libcv-bridge-dev libtf2-ros-dev libmessage-filters-dev libtf2-geometry-msgs-dev libtf2-eigen-dev
   libceres-dev libopencv-dev libopencv-contrib-dev libeigen3-dev
   libyaml-cpp-dev nlohmann-json3-dev libgtest-dev libbenchmark-dev
   libdiagnostic-updater-dev python3-tf2-msgs python3-opencv

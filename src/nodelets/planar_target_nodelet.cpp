@@ -19,6 +19,11 @@ void PlanarTargetNodelet::onInit() {
   startSession("camera_info", nh.resolveName("motion_data"), "planar targets", {"tracked", "out_of_view", "lost"});
 }
 
+bool PlanarTargetNodelet::wantsImages() const {
+  const PlanarTargetOptions& o = config_.pipeline.planar_tracking;
+  return o.refine && o.model == "perspective" && o.image_memory_mb > 0;
+}
+
 // A target's tf is wanted even without topic subscribers.
 bool PlanarTargetNodelet::wantsFrames() {
   return session([](TrackingSession& s) { return s.planarTargetCount() > 0; }) ||

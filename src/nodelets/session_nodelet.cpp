@@ -1,6 +1,7 @@
 #include "instant_motion_tracking/ros/session_nodelet.h"
 
 #include "instant_motion_tracking/ros/conversions.h"
+#include "instant_motion_tracking/ros/image_conversion.h"
 #include "instant_motion_tracking/ros/params.h"
 
 #include <stdexcept>
@@ -56,12 +57,28 @@ bool SessionNodelet::inputsWanted() {
 }
 
 void SessionNodelet::subscribeInputs(bool wanted) {
-  if (wanted && !motion_sub_) {
-    motion_sub_ = getNodeHandle().subscribe("motion_data", 10 * config_.ros.queue_size, &SessionNodelet::motionCb, this);
-  } else if (!wanted && motion_sub_) {
+  const bool subscribed = motion_sub_ || paired_motion_;
+  const uint32_t queue = 10 * config_.ros.queue_size;
+  if (wanted && !subscribed) {
+    if (wantsImages() && config_.ros.image_transport == "raw") {
+      ros::NodeHandle& nh = getNodeHandle();
+      paired_motion_ = std::make_unique<message_filters::Subscriber<instant_motion_tracking::MotionData>>(
+          nh, "motion_data", queue);
+      paired_image_ = std::make_unique<message_filters::Subscriber<sensor_msgs::Image>>(nh, "image", queue);
+      sync_ = std::make_unique<Sync>(*paired_motion_, *paired_image_, 10);
+      sync_->registerCallback(&SessionNodelet::pairedCb, this);
+      paired_motion_->registerCallback(&SessionNodelet::motionCb, this);  // frames without an image
+      session([](TrackingSession& s) { s.setKeepImages(true); });
+    } else {
+      motion_sub_ = getNodeHandle().subscribe("motion_data", queue, &SessionNodelet::motionCb, this);
+    }
+  } else if (!wanted && subscribed) {
     motion_sub_.shutdown();
+    sync_.reset();
+    paired_image_.reset();
+    paired_motion_.reset();
   }
-  health_.setSubscribed(bool(motion_sub_) || hub_->hasImageFeeder());
+  health_.setSubscribed(bool(motion_sub_) || bool(paired_motion_) || hub_->hasImageFeeder());
 }
 
 std::string SessionNodelet::retryHint() {
@@ -80,8 +97,33 @@ void SessionNodelet::infoCb(const sensor_msgs::CameraInfoConstPtr& msg) {
   }
 }
 
-// motion_data from another process (no image feeder in this manager).
+// motion_data from another process (no image feeder in this manager). When
+// images are joined to it, a frame goes in here only while no image has come
+// for a second (the joined callback feeds the others).
 void SessionNodelet::motionCb(const instant_motion_tracking::MotionDataConstPtr& msg) {
+  if (sync_) {
+    std::lock_guard<std::mutex> lock(feed_mutex_);
+    if ((ros::WallTime::now() - last_image_).toSec() < 1.0) return;
+  }
+  feed(msg, cv::Mat());
+}
+
+void SessionNodelet::pairedCb(const instant_motion_tracking::MotionDataConstPtr& msg,
+                              const sensor_msgs::ImageConstPtr& image) {
+  cv::Mat gray;
+  std::string why;
+  if (!imageToGray(*image, &gray, &why)) {
+    NODELET_WARN_THROTTLE(5.0, "image not used for the alignment: %s", why.c_str());
+    gray.release();
+  }
+  {
+    std::lock_guard<std::mutex> lock(feed_mutex_);
+    last_image_ = ros::WallTime::now();
+  }
+  feed(msg, gray);
+}
+
+void SessionNodelet::feed(const instant_motion_tracking::MotionDataConstPtr& msg, const cv::Mat& gray) {
   const ros::WallTime received = ros::WallTime::now();
   const MotionData md = fromMsg(*msg);
   if (md.width <= 0 || md.height <= 0) {
@@ -89,8 +131,14 @@ void SessionNodelet::motionCb(const instant_motion_tracking::MotionDataConstPtr&
     health_.noteDropped("motion_data without an image size");
     return;
   }
+  {
+    // A frame both callbacks saw (as images start or stop): once.
+    std::lock_guard<std::mutex> lock(feed_mutex_);
+    if (msg->header.stamp == last_fed_) return;
+    last_fed_ = msg->header.stamp;
+  }
   hub_->noteHeader(msg->header, received);
-  session([&](TrackingSession& s) { s.pushMotion(md); });
+  session([&](TrackingSession& s) { s.pushMotion(md, gray); });
 }
 
 }  // namespace imt

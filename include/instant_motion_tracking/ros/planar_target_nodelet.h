@@ -6,7 +6,9 @@
 // Frames come from a MotionAnalysisNodelet in the same manager (with their
 // images, for the appearance alignment, ~planar_tracking/refine); without one
 // it subscribes:
-//   motion_data          instant_motion_tracking/MotionData (tracked on features alone)
+//   motion_data          instant_motion_tracking/MotionData, joined by stamp
+//   image                sensor_msgs/Image (raw; for the alignment) with message_filters;
+//                        a frame whose image does not come is tracked on features alone
 // Subscribes:
 //   camera_info          sensor_msgs/CameraInfo (the camera model; without it, ~default_hfov_deg)
 // Publishes, stamped with the image stamp of the motion data:
@@ -41,6 +43,7 @@ class PlanarTargetNodelet : public SessionNodelet {
 
  private:
   bool wantsFrames() override;
+  bool wantsImages() const override;
   void onResult(const FrameResult& result, const std_msgs::Header& header, const ros::WallTime& received) override;
   bool addCb(instant_motion_tracking::AddPlanarTarget::Request& req,
              instant_motion_tracking::AddPlanarTarget::Response& res);

@@ -19,9 +19,12 @@
 #include "instant_motion_tracking/ros/nodelet_health.h"
 #include "instant_motion_tracking/ros/session_hub.h"
 
+#include <message_filters/subscriber.h>
+#include <message_filters/time_synchronizer.h>
 #include <nodelet/nodelet.h>
 #include <ros/ros.h>
 #include <sensor_msgs/CameraInfo.h>
+#include <sensor_msgs/Image.h>
 
 #include <memory>
 #include <mutex>
@@ -58,6 +61,11 @@ class SessionNodelet : public nodelet::Nodelet {
   // Default: motion_data, while this nodelet is the hub's motion feeder and frames are wanted.
   virtual bool inputsWanted();
   virtual void subscribeInputs(bool wanted);
+  // Whether, when it feeds the session from motion_data, this nodelet also
+  // wants each frame's image (`image`, raw transport), joined to it by stamp
+  // with message_filters; frames whose image does not come (or all frames,
+  // while no image has come for a second) go in without one.
+  virtual bool wantsImages() const { return false; }
 
   // Runs `f` on the session (see SessionHub::run).
   template <class F>
@@ -74,9 +82,19 @@ class SessionNodelet : public nodelet::Nodelet {
   void updateInputs();
   void infoCb(const sensor_msgs::CameraInfoConstPtr& msg);
   void motionCb(const instant_motion_tracking::MotionDataConstPtr& msg);
+  void pairedCb(const instant_motion_tracking::MotionDataConstPtr& msg, const sensor_msgs::ImageConstPtr& image);
+  void feed(const instant_motion_tracking::MotionDataConstPtr& msg, const cv::Mat& gray);
 
   SessionHub::MemberId member_ = -1;
   ros::Subscriber info_sub_, motion_sub_;
+  // motion_data joined with image (wantsImages()).
+  using Sync = message_filters::TimeSynchronizer<instant_motion_tracking::MotionData, sensor_msgs::Image>;
+  std::unique_ptr<message_filters::Subscriber<instant_motion_tracking::MotionData>> paired_motion_;
+  std::unique_ptr<message_filters::Subscriber<sensor_msgs::Image>> paired_image_;
+  std::unique_ptr<Sync> sync_;
+  std::mutex feed_mutex_;  // guards the two below
+  ros::Time last_fed_;
+  ros::WallTime last_image_;
   bool awaiting_frames_ = false;
 };
 

@@ -35,6 +35,7 @@ void SessionNodelet::startSession(const std::string& camera_info_topic, const st
   };
   m.on_demand_changed = [this] { updateInputs(); };
   m.feeds_images = feeds_images;
+  m.wants_images = wantsImages();
   info_sub_ = nh.subscribe(camera_info_topic, 1, &SessionNodelet::infoCb, this);
   health_.start(nh, getPrivateNodeHandle(), getName(), input_topic, config_.ros.diagnostic_period, items_title,
                 statuses);

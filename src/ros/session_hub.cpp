@@ -124,6 +124,8 @@ bool SessionHub::hasImageFeeder() const {
 SessionHub::MemberId SessionHub::motionFeeder() const {
   std::lock_guard<std::recursive_mutex> lock(mutex_);
   for (const auto& [id, m] : members_)
+    if (!m.feeds_images && m.wants_images) return id;
+  for (const auto& [id, m] : members_)
     if (!m.feeds_images) return id;
   return -1;
 }

@@ -51,6 +51,7 @@ class SessionHub {
     // Whether frames are wanted, or who feeds the session, changed: re-check subscriptions.
     std::function<void()> on_demand_changed;
     bool feeds_images = false;  // MotionAnalysisNodelet
+    bool wants_images = false;  // joins images to motion_data when it feeds the session from it
   };
 
   // The hub of `key` in this process, made with `config` when there is none.
@@ -65,7 +66,8 @@ class SessionHub {
   bool framesWanted() const;
   bool hasImageFeeder() const;
   // The tracker member that feeds motion_data while there is no image
-  // feeder (the oldest tracker member); -1 when there is none.
+  // feeder: the oldest one that joins images to it, else the oldest; -1
+  // when there is none.
   MemberId motionFeeder() const;
 
   // Remembers the header of a frame about to go in (its results go out with

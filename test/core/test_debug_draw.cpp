@@ -1,6 +1,6 @@
 // Tests of the debug overlay (core/debug_draw.h): boxes, quads and anchors
 // land on the pixels their states say, lost items are not drawn, other
-// statuses are dimmed, and OverlayHistory picks the states of a frame.
+// statuses are dimmed.
 #include "instant_motion_tracking/core/debug_draw.h"
 
 #include <gtest/gtest.h>
@@ -134,34 +134,6 @@ TEST(DebugDraw, PlanarQuadAndAnchorWithAxes) {
   EXPECT_LE(diff(img.at<cv::Vec3b>(c + cv::Point(end - 4, 0)), cv::Vec3b(0, 0, 255)), 30);
   // y axis (down in the image): green.
   EXPECT_LE(diff(img.at<cv::Vec3b>(c + cv::Point(0, end - 4)), cv::Vec3b(0, 200, 0)), 30);
-}
-
-TEST(OverlayHistory, SelectsTheFrameOrTheLatestRecentStates) {
-  OverlayHistory h(0.5);
-  EXPECT_TRUE(h.complete(1.0));  // nothing running: nothing to wait for
-  h.addRegions(1.0, {region(1, cv::Rect2d(0, 0, 10, 10), RegionStatus::kTracked)});
-  h.addRegions(1.1, {region(1, cv::Rect2d(5, 0, 10, 10), RegionStatus::kTracked)});
-  EXPECT_EQ(h.select(1.0).regions.at(0).box.x, 0);  // exact stamp, though a later one exists
-  EXPECT_EQ(h.select(1.1).regions.at(0).box.x, 5);
-  EXPECT_EQ(h.select(1.2).regions.at(0).box.x, 5);  // latest before it
-  EXPECT_TRUE(h.select(1.7).regions.empty());       // older than 0.5 s
-  EXPECT_TRUE(h.select(0.9).regions.empty());       // only later states: not drawn
-  // The region tracker is running: frame 1.2 waits for it, 1.1 has it, 2.0
-  // does not (nothing heard within 0.5 s).
-  EXPECT_FALSE(h.complete(1.2));
-  EXPECT_TRUE(h.complete(1.1));
-  EXPECT_TRUE(h.complete(2.0));
-  h.addTargets(1.2, {});
-  EXPECT_FALSE(h.complete(1.2));
-  h.addRegions(1.2, {});
-  EXPECT_TRUE(h.complete(1.2));
-  EXPECT_TRUE(h.select(1.2).regions.empty());  // the frame's own (empty) states
-  // A tracker that skipped a frame is not awaited for it.
-  h.addRegions(1.4, {});
-  h.addTargets(1.4, {});
-  EXPECT_TRUE(h.complete(1.3));
-  h.clear();
-  EXPECT_TRUE(h.select(1.4).regions.empty() && h.complete(1.4));
 }
 
 }  // namespace

@@ -5,11 +5,10 @@
 // as in docs/conventions.md.
 //
 //   cv::Mat bgr = drawMotionData(gray, md);
-//   OverlayHistory history;                       // fed from the tracker outputs
-//   history.addRegions(stamp, regions);
-//   drawOverlay(&bgr, history.select(md.stamp));  // the states of that frame
+//   drawOverlay(&bgr, {result.regions, result.targets, result.anchors, result.camera});
+//                                                 // a TrackingSession's FrameResult
 //
-// Threading: free functions are reentrant; OverlayHistory is not synchronised.
+// Threading: reentrant.
 #pragma once
 
 #include "instant_motion_tracking/core/anchor/anchor_manager.h"
@@ -17,7 +16,6 @@
 #include "instant_motion_tracking/core/region/region_tracker.h"
 #include "instant_motion_tracking/core/types.h"
 
-#include <deque>
 #include <vector>
 
 namespace imt {
@@ -48,49 +46,5 @@ inline const cv::Scalar kAnchorColour(255, 255, 0);        // cyan
 // (x red, y green, z blue; 10% of the anchor's distance long). Items whose
 // geometry is not finite are skipped.
 void drawOverlay(cv::Mat* bgr, const DebugOverlay& overlay);
-
-// Recent tracker outputs by image stamp, to draw each frame with the states
-// computed from it. The trackers publish after the image has been analysed,
-// so a frame waits for them (complete()) or is drawn with the latest states
-// not older than `max_age_s` (select()).
-class OverlayHistory {
- public:
-  // max_age_s: states older than this before the frame are not drawn (s).
-  // depth: states kept per kind (frames).
-  explicit OverlayHistory(double max_age_s = 0.5, size_t depth = 30)
-      : max_age_s_(max_age_s), depth_(depth) {}
-
-  void addRegions(double stamp, std::vector<RegionState> states);
-  void addTargets(double stamp, std::vector<PlanarTargetState> states);
-  void addAnchors(double stamp, std::vector<AnchorState> states);
-
-  // Per kind: the states of exactly `stamp` if received, else the latest
-  // received no later than `stamp` and not older than max_age_s; else none.
-  DebugOverlay select(double stamp) const;
-  // True when every kind heard from within max_age_s before `stamp` has its
-  // states of exactly `stamp` (a tracker that is not running is not awaited).
-  bool complete(double stamp) const;
-  // Forgets everything (time jumped backwards: a looping bag).
-  void clear();
-
- private:
-  template <class T>
-  struct Entry {
-    double stamp;
-    std::vector<T> states;
-  };
-  template <class T>
-  void add(std::deque<Entry<T>>* q, double stamp, std::vector<T> states);
-  template <class T>
-  const std::vector<T>* pick(const std::deque<Entry<T>>& q, double stamp) const;
-  template <class T>
-  bool ready(const std::deque<Entry<T>>& q, double stamp) const;
-
-  double max_age_s_;
-  size_t depth_;
-  std::deque<Entry<RegionState>> regions_;
-  std::deque<Entry<PlanarTargetState>> targets_;
-  std::deque<Entry<AnchorState>> anchors_;
-};
 
 }  // namespace imt

@@ -64,7 +64,7 @@ ImuInput TrackingSession::addImu(const ImuSample& s, std::string* why) {
 
 void TrackingSession::setKeepImages(bool keep) {
   const PlanarTargetOptions& p = options_.planar_tracking;
-  keep_images_ = keep && p.refine && p.model == "perspective" && p.image_memory_mb > 0;
+  keep_images_ = keep && p.usesImages();
   regions_.setImageBudget(keep_images_ ? static_cast<size_t>(p.image_memory_mb * 1024 * 1024) : 0);
 }
 

@@ -20,8 +20,7 @@ void PlanarTargetNodelet::onInit() {
 }
 
 bool PlanarTargetNodelet::wantsImages() const {
-  const PlanarTargetOptions& o = config_.pipeline.planar_tracking;
-  return o.refine && o.model == "perspective" && o.image_memory_mb > 0;
+  return config_.pipeline.planar_tracking.usesImages();
 }
 
 // A target's tf is wanted even without topic subscribers.

@@ -88,6 +88,8 @@ struct PlanarTargetOptions {
       "MB of gray frames kept for the alignment (oldest dropped first)");
   }
   std::string validate() const;
+  // Whether the appearance alignment runs, so frames' images are wanted.
+  bool usesImages() const { return refine && model == "perspective" && image_memory_mb > 0; }
 };
 
 }  // namespace imt

@@ -78,20 +78,31 @@ class YamlReader {
   std::set<std::string> used_;
 };
 
+// A parameter's value as YAML scalar text: strings quoted, numbers with
+// up to 10 significant digits, a double always with a point or an exponent.
+template <class T>
+std::string scalarText(const T& field) {
+  std::ostringstream os;
+  if constexpr (std::is_same_v<T, bool>) {
+    os << (field ? "true" : "false");
+  } else if constexpr (std::is_same_v<T, std::string>) {
+    os << '"' << field << '"';
+  } else if constexpr (std::is_same_v<T, double>) {
+    os.precision(10);
+    os << field;
+    if (os.str().find_first_of(".e") == std::string::npos) os << ".0";
+  } else {
+    os << field;
+  }
+  return os.str();
+}
+
 class Lister {
  public:
   explicit Lister(std::string prefix = "") : prefix_(std::move(prefix)) {}
   template <class T>
   void operator()(const char* name, T& field, const char*) {
-    std::ostringstream os;
-    if constexpr (std::is_same_v<T, bool>) {
-      os << (field ? "true" : "false");
-    } else if constexpr (std::is_same_v<T, std::string>) {
-      os << '"' << field << '"';
-    } else {
-      os << field;
-    }
-    out.emplace_back(prefix_ + name, os.str());
+    out.emplace_back(prefix_ + name, scalarText(field));
   }
   template <class S>
   void section(const char* name, S& sub) {
@@ -113,19 +124,7 @@ class YamlDocWriter {
       : out_(out), sections_(sections), indent_(indent) {}
   template <class T>
   void operator()(const char* name, T& field, const char* doc) {
-    std::ostringstream value;
-    if constexpr (std::is_same_v<T, bool>) {
-      value << (field ? "true" : "false");
-    } else if constexpr (std::is_same_v<T, std::string>) {
-      value << '"' << field << '"';
-    } else if constexpr (std::is_same_v<T, double>) {
-      value.precision(10);
-      value << field;
-      if (value.str().find_first_of(".e") == std::string::npos) value << ".0";
-    } else {
-      value << field;
-    }
-    std::string line = std::string(indent_, ' ') + name + ": " + value.str();
+    std::string line = std::string(indent_, ' ') + name + ": " + scalarText(field);
     const size_t column = indent_ ? 33 : 27;
     line.resize(std::max(column, line.size() + 1), ' ');
     *out_ << line << "# " << doc << "\n";

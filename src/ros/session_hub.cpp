@@ -5,16 +5,8 @@
 namespace imt {
 namespace {
 
-// The pipeline's parameters as text, to tell whether two configs share a session.
-std::string pipelineFingerprint(const Config& config) {
-  Config c;
-  c.pipeline = config.pipeline;
-  std::string s;
-  for (const auto& [name, value] : listParameters(c)) s += name + "=" + value + "\n";
-  return s;
-}
-
-// The parameters in which `a` and `b` differ, by name (at most three).
+// The pipeline parameters in which `a` and `b` differ, by name (at most
+// three); "" when they agree.
 std::string differences(const Config& a, const Config& b) {
   Config ca, cb;
   ca.pipeline = a.pipeline;
@@ -51,16 +43,16 @@ constexpr size_t kHeadersKept = 300;  // frames' headers awaiting their results 
 
 SessionHub::SessionHub(const std::string& key, const Config& config)
     : key_(key),
-      fingerprint_(pipelineFingerprint(config)),
       session_(std::make_unique<TrackingSession>(config.pipeline, TrackingSession::Mode::kLive)) {}
 
 std::shared_ptr<SessionHub> SessionHub::join(const std::string& key, const Config& config, std::string* note) {
   std::lock_guard<std::mutex> lock(registryMutex());
   Entry& e = registry()[key];
   if (auto hub = e.hub.lock()) {
-    if (hub->fingerprint_ != pipelineFingerprint(config) && note)
-      *note = "this nodelet's parameters differ from those the session of " + key + " was made with (" +
-              differences(e.config, config) + "); the session's are used";
+    const std::string differ = differences(e.config, config);
+    if (!differ.empty() && note)
+      *note = "this nodelet's parameters differ from those the session of " + key + " was made with (" + differ +
+              "); the session's are used";
     return hub;
   }
   std::shared_ptr<SessionHub> hub(new SessionHub(key, config));

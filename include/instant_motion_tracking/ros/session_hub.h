@@ -102,7 +102,6 @@ class SessionHub {
   void notifyDemand();  // without mutex_
 
   const std::string key_;
-  const std::string fingerprint_;
   mutable std::recursive_mutex mutex_;
   std::unique_ptr<TrackingSession> session_;
   std::map<MemberId, Member> members_;

@@ -44,6 +44,7 @@ void MotionAnalysisNodelet::subscribeInputs(bool wanted) {
     NODELET_DEBUG("nothing wants frames: unsubscribing from the image");
     image_sub_.shutdown();
   }
+  subscribeCameraInfo(wanted);
   health_.setSubscribed(bool(image_sub_));
 }
 

@@ -36,7 +36,7 @@ void SessionNodelet::startSession(const std::string& camera_info_topic, const st
   m.on_demand_changed = [this] { updateInputs(); };
   m.feeds_images = feeds_images;
   m.wants_images = wantsImages();
-  info_sub_ = nh.subscribe(camera_info_topic, 1, &SessionNodelet::infoCb, this);
+  camera_info_topic_ = camera_info_topic;
   health_.start(nh, getPrivateNodeHandle(), getName(), input_topic, config_.ros.diagnostic_period, items_title,
                 statuses);
   member_ = hub_->addMember(std::move(m));
@@ -79,7 +79,15 @@ void SessionNodelet::subscribeInputs(bool wanted) {
     paired_image_.reset();
     paired_motion_.reset();
   }
+  subscribeCameraInfo(wanted);
   health_.setSubscribed(bool(motion_sub_) || bool(paired_motion_) || hub_->hasImageFeeder());
+}
+
+void SessionNodelet::subscribeCameraInfo(bool on) {
+  if (on && !info_sub_)
+    info_sub_ = getNodeHandle().subscribe(camera_info_topic_, 1, &SessionNodelet::infoCb, this);
+  else if (!on && info_sub_)
+    info_sub_.shutdown();
 }
 
 std::string SessionNodelet::retryHint() {
@@ -126,17 +134,17 @@ void SessionNodelet::pairedCb(const instant_motion_tracking::MotionDataConstPtr&
 
 void SessionNodelet::feed(const instant_motion_tracking::MotionDataConstPtr& msg, const cv::Mat& gray) {
   const ros::WallTime received = ros::WallTime::now();
-  const MotionData md = fromMsg(*msg);
-  if (md.width <= 0 || md.height <= 0) {
-    NODELET_WARN_THROTTLE(5.0, "dropping motion_data without an image size");
-    health_.noteDropped("motion_data without an image size");
-    return;
-  }
   {
     // A frame both callbacks saw (as images start or stop): once.
     std::lock_guard<std::mutex> lock(feed_mutex_);
     if (msg->header.stamp == last_fed_) return;
     last_fed_ = msg->header.stamp;
+  }
+  const MotionData md = fromMsg(*msg);
+  if (md.width <= 0 || md.height <= 0) {
+    NODELET_WARN_THROTTLE(5.0, "dropping motion_data without an image size");
+    health_.noteDropped("motion_data without an image size");
+    return;
   }
   hub_->noteHeader(msg->header, received);
   session([&](TrackingSession& s) { s.pushMotion(md, gray); });

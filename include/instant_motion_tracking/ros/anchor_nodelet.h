@@ -6,8 +6,8 @@
 // out of view) + the camera rotation from the IMU, z up from gravity.
 // Frames come from a MotionAnalysisNodelet in the same manager, else it subscribes:
 //   motion_data     instant_motion_tracking/MotionData (from MotionAnalysisNodelet)
+//   camera_info     sensor_msgs/CameraInfo (the camera model; the image feeder's otherwise)
 // Subscribes:
-//   camera_info     sensor_msgs/CameraInfo (the camera model; without it, ~default_hfov_deg)
 //   imu             sensor_msgs/Imu, into the session (gyro integrated, or its orientation with
 //                   ~imu/use_fused_orientation); NaN and out-of-order samples are
 //                   dropped with a throttled warning; a jump back restarts it

@@ -9,7 +9,7 @@
 //   motion_data          instant_motion_tracking/MotionData, joined by stamp
 //   image                sensor_msgs/Image (raw; for the alignment) with message_filters;
 //                        a frame whose image does not come is tracked on features alone
-// Subscribes:
+// and then also (the image feeder subscribes it otherwise):
 //   camera_info          sensor_msgs/CameraInfo (the camera model; without it, ~default_hfov_deg)
 // Publishes, stamped with the image stamp of the motion data:
 //   planar_targets       instant_motion_tracking/PlanarTargetArray

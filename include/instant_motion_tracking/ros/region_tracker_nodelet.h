@@ -4,7 +4,7 @@
 // as a view of the manager's TrackingSession (ros/session_nodelet.h).
 // Frames come from a MotionAnalysisNodelet in the same manager, else it subscribes:
 //   motion_data       instant_motion_tracking/MotionData (from MotionAnalysisNodelet)
-// Subscribes:
+// and then also (the image feeder subscribes it otherwise):
 //   camera_info       sensor_msgs/CameraInfo (optional; the camera model)
 // Publishes, stamped with the image stamp of the motion data:
 //   regions           instant_motion_tracking/TrackedRegionArray

@@ -42,7 +42,8 @@ class SessionNodelet : public nodelet::Nodelet {
   // Throws (the nodelet does not start) on a bad parameter, naming it.
   void joinSession();
   // Then, once the publishers exist: becomes a member of the session (its
-  // results reach onResult()) and subscribes camera_info
+  // results reach onResult()); `camera_info_topic` is subscribed while this
+  // nodelet feeds the session (subscribeCameraInfo)
   // (`camera_info_topic`). `items_title`/`statuses`: the diagnostics of this
   // nodelet's items (see NodeletHealth::start).
   void startSession(const std::string& camera_info_topic, const std::string& input_topic,
@@ -50,6 +51,9 @@ class SessionNodelet : public nodelet::Nodelet {
                     bool feeds_images = false);
   // Re-checks whether this nodelet wants frames, then every input.
   void updateSubscription();
+  // camera_info into the session, while this nodelet feeds it frames (one
+  // subscriber per manager, not one per nodelet).
+  void subscribeCameraInfo(bool on);
   // Whether a request refused for want of frames should keep the inputs up.
   void awaitFrames(bool refused_without_frames) { awaiting_frames_ = refused_without_frames; }
   bool awaitingFrames() const { return awaiting_frames_; }
@@ -86,6 +90,7 @@ class SessionNodelet : public nodelet::Nodelet {
   void feed(const instant_motion_tracking::MotionDataConstPtr& msg, const cv::Mat& gray);
 
   SessionHub::MemberId member_ = -1;
+  std::string camera_info_topic_;
   ros::Subscriber info_sub_, motion_sub_;
   // motion_data joined with image (wantsImages()).
   using Sync = message_filters::TimeSynchronizer<instant_motion_tracking::MotionData, sensor_msgs::Image>;

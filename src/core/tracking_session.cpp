@@ -30,6 +30,7 @@ TrackingSession::TrackingSession(const PipelineOptions& options, Mode mode)
                                                options.default_hfov_deg, &regions_)) {
   Eigen::Quaterniond q;
   if (options.anchors.rotationCamImu(&q) && anchors_->rotationFromOptions()) q_cam_imu_ = q;
+  setKeepImages(false);  // the regions' appearance checks may want the frames all the same
 }
 
 void TrackingSession::setCameraInfo(const CameraModel& info) {
@@ -65,7 +66,8 @@ ImuInput TrackingSession::addImu(const ImuSample& s, std::string* why) {
 void TrackingSession::setKeepImages(bool keep) {
   const PlanarTargetOptions& p = options_.planar_tracking;
   keep_images_ = keep && p.usesImages();
-  regions_.setImageBudget(keep_images_ ? static_cast<size_t>(p.image_memory_mb * 1024 * 1024) : 0);
+  const bool wanted = keep_images_ || options_.region_tracking.appearance;
+  regions_.setImageBudget(wanted ? static_cast<size_t>(p.image_memory_mb * 1024 * 1024) : 0);
 }
 
 const MotionData& TrackingSession::analyze(const cv::Mat& gray, double stamp) {
@@ -76,7 +78,8 @@ const MotionData& TrackingSession::analyze(const cv::Mat& gray, double stamp) {
   dropStaleFrames(stamp);
   // The image goes along for the alignment (kept within its budget) and, live,
   // for the overlays of the frame's results.
-  pending_.push_back({last_motion_, keep_images_ || mode_ == Mode::kLive ? gray : cv::Mat()});
+  const bool wanted = keep_images_ || mode_ == Mode::kLive || options_.region_tracking.appearance;
+  pending_.push_back({last_motion_, wanted ? gray : cv::Mat()});
   advance(false);
   return last_motion_;
 }
@@ -105,7 +108,8 @@ void TrackingSession::advance(bool all) {
 void TrackingSession::track(Pending frame) {
   const auto t0 = Clock::now();
   FrameResult r;
-  r.regions = userRegions(regions_.update(frame.md, keep_images_ ? frame.gray.clone() : cv::Mat()));
+  const bool keep = keep_images_ || options_.region_tracking.appearance;
+  r.regions = userRegions(regions_.update(frame.md, keep ? frame.gray.clone() : cv::Mat()));
   r.reset = regions_.lastReset();
   anchors_->update();
   const auto t1 = Clock::now();

@@ -11,12 +11,14 @@ RegionManager::RegionManager(const RegionTrackerOptions& options, double cache_s
     : options_(validated(options)), cache_(cache_seconds) {}
 
 void RegionManager::clear() {
+  newest_image_.release();
   cache_.clear();
   regions_.clear();
 }
 
 std::vector<RegionState> RegionManager::update(const MotionData& md, const cv::Mat& image) {
   last_reset_.clear();
+  newest_image_ = options_.appearance ? image : cv::Mat();
   if (!cache_.push(md, &last_reset_, image)) {
     regions_.clear();
     last_reset_ += "; regions cleared";
@@ -83,17 +85,25 @@ const MotionData& RegionManager::frame(uint64_t seq, MotionData* scratch) const 
   return *scratch;
 }
 
+cv::Mat RegionManager::imageOf(uint64_t seq) const {
+  if (!options_.appearance) return cv::Mat();
+  if (seq == cache_.lastSeq() && !newest_image_.empty()) return newest_image_;
+  return cache_.image(seq);
+}
+
 const RegionState& RegionManager::stateAt(Region& r, uint64_t seq) {
   RegionTracker tracker(options_, cache_.imageSize());
   auto& st = r.states;
   MotionData scratch;
   // Forward from the newest known state.
   for (uint64_t s = st.rbegin()->first; s < seq; ++s) {
-    st[s + 1] = tracker.step(st[s], frame(s + 1, &scratch), Direction::kForward);
+    st[s + 1] = tracker.step(st[s], frame(s + 1, &scratch), Direction::kForward, 0, imageOf(s + 1));
   }
   // Backward from the oldest known state.
   for (uint64_t s = st.begin()->first; s > seq; --s) {
-    st[s - 1] = tracker.step(st[s].reversed(), frame(s, &scratch), Direction::kBackward, cache_.at(s - 1).stamp)
+    st[s - 1] = tracker
+                    .step(st[s].reversed(), frame(s, &scratch), Direction::kBackward, cache_.at(s - 1).stamp,
+                          imageOf(s - 1))
                     .reversed();
   }
   return st.at(seq);
@@ -129,7 +139,9 @@ bool RegionManager::add(uint32_t id, double stamp, const cv::Rect2d& box, uint32
   }
   Region& r = regions_[id];
   r.id = id;
-  r.states[seq] = RegionState::start(id, box, cache_.at(seq).stamp);
+  RegionState start = RegionState::start(id, box, cache_.at(seq).stamp);
+  RegionTracker(options_, cache_.imageSize()).initAppearance(&start, imageOf(seq));
+  r.states[seq] = start;
   stateAt(r, cache_.lastSeq());  // catch up to the present
   *assigned_id = id;
   return true;

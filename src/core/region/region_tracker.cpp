@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <sstream>
 
 namespace imt {
@@ -185,15 +186,142 @@ std::string RegionTrackerOptions::validate() const {
   c.check(lost_distance > 0, "lost_distance", "must be > 0", lost_distance);
   c.atLeast("confidence_inliers", confidence_inliers, 1.0);
   c.atLeast("fallback_min_features", fallback_min_features, 1);
+  c.inRange("appearance_size", appearance_size, 8, 256);
+  c.inRange("appearance_margin", appearance_margin, 0.0, 2.0);
+  c.inRange("appearance_accept", appearance_accept, 0.0, 1.0);
+  c.inRange("appearance_gain", appearance_gain, 0.0, 1.0);
+  c.inRange("appearance_gap", appearance_gap, 0.0, 2.0);
+  c.inRange("appearance_update", appearance_update, 0.0, 1.0);
+  c.inRange("appearance_lost_score", appearance_lost_score, -1.0, 1.0);
+  c.atLeast("appearance_lost_frames", appearance_lost_frames, 0);
+  c.inRange("reacquire_score", reacquire_score, 0.0, 1.0);
+  c.atLeast("reacquire_interval", reacquire_interval, 0);
   return c.error();
 }
 
-RegionState RegionTracker::step(const RegionState& state, const MotionData& md, Direction dir,
-                                double prev_stamp) const {
+RegionState RegionTracker::step(const RegionState& state, const MotionData& md, Direction dir, double prev_stamp,
+                                const cv::Mat& image) const {
+  RegionState next = stepMotion(state, md, dir, prev_stamp);
+  const bool use_image = options_.appearance && state.appearance.valid() && !image.empty() &&
+                         image.type() == CV_8UC1 && image.size() == image_size_;
+  if (!use_image) return next;
+  if (state.status == RegionStatus::kLost) {
+    reacquire(&next, image);
+    return next;
+  }
+  const bool camera_valid = md.camera.model != MotionModel::kInvalid;
+  const bool weak = !camera_valid || next.coast_frames > 0 || next.status == RegionStatus::kFeatureless ||
+                    static_cast<int>(next.inliers.size()) < options_.min_inliers_scale;
+  checkAppearance(state, &next, weak, image);
+  return next;
+}
+
+void RegionTracker::initAppearance(RegionState* state, const cv::Mat& image) const {
+  if (!options_.appearance || image.empty() || image.type() != CV_8UC1) return;
+  if (RegionAppearance::create(image, state->box, options_.appearance_size, &state->appearance))
+    state->first_appearance = state->appearance;
+}
+
+void RegionTracker::checkAppearance(const RegionState& state, RegionState* next, bool motion_weak,
+                                    const cv::Mat& image) const {
+  const RegionTrackerOptions& o = options_;
+  if (next->status == RegionStatus::kLost || next->status == RegionStatus::kOutOfView) {
+    next->appearance_score = -1;
+    return;
+  }
+  const double margin = motion_weak ? 2 * o.appearance_margin : o.appearance_margin;
+  const AppearanceMatch m = state.appearance.match(image, next->box, margin);
+  if (!m.found) {
+    next->appearance_score = -1;
+    return;
+  }
+  double score = m.score_at_box;
+  // How firmly the features carry the region (1: confidence_inliers or more).
+  const double motion_confidence = motion_weak ? 0.0 : std::min(1.0, next->inliers.size() / o.confidence_inliers);
+  // A clearly better look nearby: move toward it (all the way when the motion
+  // data had nothing to say about the region itself).
+  if (m.score >= o.appearance_accept && m.score > m.score_at_box + o.appearance_gap) {
+    // The motion fit is precise where many features carry it: the look
+    // only nudges such a region, and moves one the features do not hold.
+    const double k = motion_weak ? 1.0 : o.appearance_gain * (1 - motion_confidence);
+    const cv::Point2d c0 = (next->box.tl() + next->box.br()) / 2, c1 = (m.box.tl() + m.box.br()) / 2;
+    const cv::Point2d c = c0 + k * (c1 - c0);
+    // Sizes from a 5% scale search are coarse, and a perspective view often
+    // matches a smaller box best: they count only when the features cannot
+    // measure the scale, and then at half speed.
+    const double ks = motion_weak ? 0.5 : 0.0;
+    const double w = next->box.width + ks * (m.box.width - next->box.width);
+    const double h = next->box.height + ks * (m.box.height - next->box.height);
+    next->box = cv::Rect2d(c.x - w / 2, c.y - h / 2, w, h);
+    score = m.score;
+    if (motion_weak) {
+      // Seen where it is: no longer coasting blind, nor merely carried by the camera.
+      next->coast_frames = 0;
+      next->status = RegionStatus::kTracked;
+    }
+  }
+  next->appearance_score = score;
+  if (score >= o.appearance_accept) {
+    next->appearance_misses = 0;
+    next->confidence = std::max(next->confidence, std::min(1.0, (score - o.appearance_lost_score) /
+                                                                    (1.0 - o.appearance_lost_score)));
+    // Confident frames teach the template the region's current look, when
+    // the look at placement agrees on where the region is (else the
+    // template would learn whatever drifted into the box).
+    if (!motion_weak || score >= o.reacquire_score) {
+      const AppearanceMatch first = state.first_appearance.match(image, next->box, 0.1);
+      const cv::Point2d d = (first.box.tl() + first.box.br()) / 2 - (next->box.tl() + next->box.br()) / 2;
+      const double tolerance = 0.015 * std::max(next->box.width, next->box.height);
+      const bool first_agrees = first.found && first.score >= o.appearance_lost_score && std::hypot(d.x, d.y) <= tolerance;
+      // A region the features carry firmly may change its look (turn, tilt)
+      // beyond the first look's recognition: the features vouch for it.
+      if (first_agrees || motion_confidence >= 1.0)
+        next->appearance.blend(image, next->box, o.appearance_update);
+    }
+  } else if (score < o.appearance_lost_score) {
+    // It looks wrong; lost only when the features do not firmly carry it.
+    next->appearance_misses = motion_confidence >= 1.0 ? 0 : state.appearance_misses + 1;
+    next->confidence *= 0.5;
+    if (o.appearance_lost_frames > 0 && next->appearance_misses >= o.appearance_lost_frames) {
+      next->status = RegionStatus::kLost;
+      next->confidence = 0;
+      next->reason = "no longer looks like itself (correlation below " + std::to_string(o.appearance_lost_score) +
+                     " for " + std::to_string(o.appearance_lost_frames) + " frames)";
+    }
+  }
+}
+
+void RegionTracker::reacquire(RegionState* next, const cv::Mat& image) const {
+  const RegionTrackerOptions& o = options_;
+  next->lost_frames += 1;
+  AppearanceMatch m = next->appearance.match(image, next->box, 1.0);
+  if ((!m.found || m.score < o.reacquire_score) && o.reacquire_interval > 0 &&
+      next->lost_frames % o.reacquire_interval == 1 % o.reacquire_interval)
+    m = next->appearance.matchAnywhere(image, next->box);
+  if (!m.found || m.score < o.reacquire_score) return;
+  char why[96];
+  std::snprintf(why, sizeof(why), "re-acquired by its appearance (correlation %.2f) after %d frames lost", m.score,
+                next->lost_frames);
+  const RegionAppearance look = next->appearance, first = next->first_appearance;
+  const double interval = next->frame_interval;
+  *next = RegionState::start(next->id, m.box, next->stamp);
+  next->appearance = look;
+  next->first_appearance = first;
+  next->frame_interval = interval;
+  next->appearance_score = m.score;
+  next->confidence = std::min(1.0, (m.score - o.appearance_lost_score) / (1.0 - o.appearance_lost_score));
+  next->status = fractionInside(next->box, image_size_) < o.out_of_view_fraction ? RegionStatus::kOutOfView
+                                                                                 : RegionStatus::kTracked;
+  next->reason = why;
+}
+
+RegionState RegionTracker::stepMotion(const RegionState& state, const MotionData& md, Direction dir,
+                                      double prev_stamp) const {
   const RegionTrackerOptions& o = options_;
   RegionState next = state;
   next.stamp = dir == Direction::kForward ? md.stamp : prev_stamp;
   if (state.status == RegionStatus::kLost) return next;
+  next.reason.clear();
 
   // Camera (background) motion in the tracking direction.
   const bool camera_valid = md.camera.model != MotionModel::kInvalid && md.camera.H.allFinite();

@@ -39,7 +39,9 @@ class RegionManager {
   // Appends the next frame's motion data and advances every region to it.
   // A stamp that does not increase, or a new image size, clears the cache and
   // every region (a bag loop or a camera change): `lastReset()` says so.
-  // `image` is kept in the cache within its image budget (see MotionCache).
+  // `image` (the frame's gray, optional) is what the regions' appearance
+  // checks see; it is kept in the cache within its image budget (see
+  // MotionCache), so regions added in the past and seeks see theirs too.
   std::vector<RegionState> update(const MotionData& md, const cv::Mat& image = cv::Mat());
   void setImageBudget(size_t bytes) { cache_.setImageBudget(bytes); }
   void setImageSource(MotionCache::ImageSource source) { cache_.setImageSource(std::move(source)); }
@@ -80,12 +82,15 @@ class RegionManager {
   // The cached frame `seq`, its camera motion from the fallback when its own
   // model is invalid (`scratch` holds the patched copy).
   const MotionData& frame(uint64_t seq, MotionData* scratch) const;
+  // The gray image of frame `seq` for the appearance checks (empty: none).
+  cv::Mat imageOf(uint64_t seq) const;
 
   RegionTrackerOptions options_;
   MotionCache cache_;
   std::map<uint32_t, Region> regions_;
   std::string last_reset_;
   CameraFallback fallback_;
+  cv::Mat newest_image_;  // the latest frame's image, also when the cache's budget keeps none
 };
 
 }  // namespace imt

@@ -5,7 +5,19 @@
 // w_i = prior_i / error_i: the prior favours the features that supported the
 // region last frame (its implicit appearance, kept as feature IDs) and those
 // near its centre; the error is the feature's residual against the current
-// fit. The tracker never sees pixels.
+// fit.
+//
+// Appearance (when the frames' images are given): each region keeps a small
+// template of its look (region_appearance.h), taken at placement and blended
+// with later looks on confident frames. After the motion step the template
+// is matched around the new box: a clearly better match nearby corrects slow
+// drift (fully when the motion step had no support of its own: featureless,
+// coasting, or no camera model); a region that stops looking like itself for
+// `appearance_lost_frames` frames is lost; and a lost region is searched for
+// around its last place and, every `reacquire_interval` frames, over the
+// whole frame, and becomes `tracked` again on a strong match (its `reason`
+// says so on that frame). Without images the tracker runs on motion data
+// alone, as the paper's.
 //
 // A step works in either time direction: forward (frame k-1 -> k) and
 // backward (k -> k-1) use the same fit on reversed correspondences, which is
@@ -19,6 +31,7 @@
 // Threading: const methods only; one tracker may serve many threads.
 #pragma once
 
+#include "instant_motion_tracking/core/region/region_appearance.h"
 #include "instant_motion_tracking/core/region/region_tracker_options.h"
 #include "instant_motion_tracking/core/types.h"
 
@@ -52,7 +65,12 @@ struct RegionState {
   cv::Size2d inlier_extent;        // px; 3.3 standard deviations of the inliers in x and y (0 without inliers)
   int coast_frames = 0;            // consecutive frames predicted without support
   double frame_interval = 0;       // s; the "frame" of the velocities (the usual interval; 0 until known)
-  std::string reason;              // why the region is lost (empty otherwise)
+  std::string reason;              // why the region is lost, or how it was re-acquired on this frame
+  RegionAppearance appearance;     // its look (invalid without images, or for a flat box)
+  RegionAppearance first_appearance;  // its look at placement (checks the template's updates)
+  double appearance_score = -1;    // NCC of the look at this frame's box (-1: not checked)
+  int appearance_misses = 0;       // consecutive frames it did not look like itself
+  int lost_frames = 0;             // frames since it was lost
 
   static RegionState start(uint32_t id, const cv::Rect2d& box, double stamp);
   // The state with its direction of travel reversed (velocities negated).
@@ -67,14 +85,24 @@ class RegionTracker {
   // Advances `state` by one frame. Forward: `md` is the motion data of the
   // next frame (it describes previous -> md). Backward: `md` is the motion
   // data of the state's own frame, and the result belongs to the frame
-  // before it (`prev_stamp`).
-  RegionState step(const RegionState& state, const MotionData& md, Direction dir,
-                   double prev_stamp = 0) const;
+  // before it (`prev_stamp`). `image`: the gray frame the result belongs to
+  // (CV_8UC1, the motion data's size), or empty for motion data alone.
+  RegionState step(const RegionState& state, const MotionData& md, Direction dir, double prev_stamp = 0,
+                   const cv::Mat& image = cv::Mat()) const;
+  // Takes the region's look from `image`, the frame of its box (no-op when
+  // appearance is off, the image is empty or the box is flat).
+  void initAppearance(RegionState* state, const cv::Mat& image) const;
 
   const RegionTrackerOptions& options() const { return options_; }
   cv::Size imageSize() const { return image_size_; }
 
  private:
+  RegionState stepMotion(const RegionState& state, const MotionData& md, Direction dir, double prev_stamp) const;
+  // The appearance check after the motion step (`motion_weak`: the step had
+  // no support of its own), and the search for a lost region.
+  void checkAppearance(const RegionState& state, RegionState* next, bool motion_weak, const cv::Mat& image) const;
+  void reacquire(RegionState* next, const cv::Mat& image) const;
+
   RegionTrackerOptions options_;
   cv::Size image_size_;
 };

@@ -34,6 +34,17 @@ struct RegionTrackerOptions {
       3.0;  // out of view farther than this many box sizes outside the image: lost
   double confidence_inliers = 20;
   int fallback_min_features = 10;
+  bool appearance = true;
+  int appearance_size = 40;
+  double appearance_margin = 0.35;
+  double appearance_accept = 0.6;
+  double appearance_gain = 0.5;
+  double appearance_gap = 0.1;
+  double appearance_update = 0.1;
+  double appearance_lost_score = 0.3;
+  int appearance_lost_frames = 20;
+  double reacquire_score = 0.75;
+  int reacquire_interval = 5;
 
   template <class V>
   void visit(V& v) {
@@ -68,6 +79,27 @@ struct RegionTrackerOptions {
     v("fallback_min_features", fallback_min_features,
       "frames without a camera model move by the IMU rotation (anchors); with this many features, "
       "plus their median residual (the translation)");
+    v("appearance", appearance,
+      "check each region's look (a template) against the frames: corrects drift, re-acquires lost regions");
+    v("appearance_size", appearance_size, "px; the template's longer side (smaller boxes keep their own pixels)");
+    v("appearance_margin", appearance_margin,
+      "search reach around the motion's box, fraction of its sides (doubled when the motion step had no support)");
+    v("appearance_accept", appearance_accept,
+      "normalised cross-correlation above which a better-matching box nearby corrects the region");
+    v("appearance_gain", appearance_gain,
+      "fraction of that correction applied per frame, times (1 - the motion fit's confidence); all of it when "
+      "the motion step had no support");
+    v("appearance_gap", appearance_gap,
+      "the better box must beat the motion's box by this much correlation (the features are more precise)");
+    v("appearance_update", appearance_update,
+      "weight of the current look blended into the template on confident frames");
+    v("appearance_lost_score", appearance_lost_score,
+      "correlation below which the region does not look like itself");
+    v("appearance_lost_frames", appearance_lost_frames,
+      "consecutive such frames after which the region is lost (0 = never)");
+    v("reacquire_score", reacquire_score, "correlation at which a lost region is found again");
+    v("reacquire_interval", reacquire_interval,
+      "frames between whole-frame searches for a lost region (around its last place: every frame)");
   }
   std::string validate() const;
 };

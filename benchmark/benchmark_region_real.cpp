@@ -1,0 +1,200 @@
+// Region tracking on real video against peers: every sequence with box
+// ground truth in ../shared/data (or $IMT_SHARED_DATA): VOT2015 car1, UAV123
+// boat1, OTB Human3 and POT-210's corner boxes (test/box_sequence.h). Each
+// tracker is given the first frame's ground-truth box and runs frame by
+// frame, as live. This package runs whole (imt::TrackingSession: motion
+// analysis and region tracking, default options, gray frames); OpenCV's KCF
+// and CSRT (opencv_contrib) get the colour frames. Scores (OTB definitions,
+// frames from the second; a lost region scores IoU 0): success AUC, mean
+// IoU, precision at 20 px, and frames/s (tracking only, decoding excluded).
+// Single-threaded (cv::setNumThreads(1)).
+//
+//   make -C _build benchmarks && taskset -c 0 _build/benchmark/benchmark_region_real [--ours-only] [--no-appearance] [--set option=value] [--trace] [sequence...]
+#include "instant_motion_tracking/core/tracking_session.h"
+
+#include "../test/box_sequence.h"
+
+#include <opencv2/imgproc.hpp>
+
+#ifdef IMT_HAVE_OPENCV_TRACKING
+#include <opencv2/tracking.hpp>
+#endif
+
+#include <chrono>
+#include <cstdio>
+#include <cstdlib>
+#include <functional>
+#include <map>
+#include <set>
+#include <type_traits>
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+struct Row {
+  double auc = 0, iou = 0, p20 = 0, fps = 0;
+};
+
+// Runs one tracker over the sequence: `step(frame number, &box)` tracks frame
+// f (from 1; frame 1 initialises) and returns false when it reports no box.
+Row run(const imt::test::BoxSequence& seq, const std::vector<cv::Mat>& frames,
+        const std::function<bool(int, cv::Rect2d*)>& step) {
+  imt::test::BoxScore score;
+  double seconds = 0;
+  for (int f = 1; f <= seq.frames(); ++f) {
+    cv::Rect2d box;
+    const auto t0 = Clock::now();
+    const bool ok = step(f, &box);
+    seconds += std::chrono::duration<double>(Clock::now() - t0).count();
+    if (f > 1 && seq.scored(f)) score.add(ok, box, seq.box(f), frames[0].size());
+  }
+  return {score.successAuc(), score.meanIou(), score.precision20(), seq.frames() / seconds};
+}
+
+// --trace: one line per frame of this package's run on stderr.
+bool g_trace = false;
+// --no-appearance: regions on motion data alone (the paper's tracker).
+bool g_appearance = true;
+// --set name=value: a region_tracking option (for experiments).
+std::map<std::string, double> g_set;
+
+struct SetOption {
+  const std::string& name;
+  double value;
+  bool* found;
+  template <class T>
+  void operator()(const char* n, T& field, const char*) {
+    if (name != n) return;
+    if constexpr (std::is_arithmetic_v<T>) {
+      field = static_cast<T>(value);
+      *found = true;
+    }
+  }
+};
+
+Row runOurs(const imt::test::BoxSequence& seq, const std::vector<cv::Mat>& gray) {
+  imt::PipelineOptions options;
+  options.region_tracking.appearance = g_appearance;
+  for (const auto& [name, value] : g_set) {
+    bool found = false;
+    SetOption set{name, value, &found};
+    options.region_tracking.visit(set);
+    if (!found) {
+      std::fprintf(stderr, "--set: no region_tracking option %s\n", name.c_str());
+      std::exit(2);
+    }
+  }
+  imt::TrackingSession session(options, imt::TrackingSession::Mode::kLive);
+  uint32_t id = 0;
+  return run(seq, gray, [&](int f, cv::Rect2d* box) {
+    session.analyze(gray[f - 1], seq.stamp(f));
+    session.advance();
+    std::string err;
+    if (f == 1) {
+      session.takeResults();
+      return session.addRegion(1, 0, seq.box(1), &id, &err);
+    }
+    for (const imt::FrameResult& r : session.takeResults())
+      for (const imt::RegionState& s : r.regions)
+        if (s.id == id) {
+          *box = s.box;
+          if (g_trace)
+            std::fprintf(stderr, "%s %d iou %.2f %s app %.2f conf %.2f inliers %zu outliers %zu support %.0f box %.0f %.0f %.0f %.0f truth %.0f %.0f %.0f %.0f %s %s\n",
+                         seq.name().c_str(), f, imt::test::iouClipped(s.box, seq.box(f), gray[0].size()),
+                         imt::regionStatusName(s.status), s.appearance_score, s.confidence, s.inliers.size(), s.outliers.size(), s.support,
+                         s.box.x, s.box.y, s.box.width, s.box.height, seq.box(f).x, seq.box(f).y, seq.box(f).width,
+                         seq.box(f).height, imt::motionModelName(r.motion.camera.model), s.reason.c_str());
+          return s.status != imt::RegionStatus::kLost;
+        }
+    return false;
+  });
+}
+
+#ifdef IMT_HAVE_OPENCV_TRACKING
+Row runPeer(const imt::test::BoxSequence& seq, const std::vector<cv::Mat>& colour, cv::Ptr<cv::Tracker> t) {
+  return run(seq, colour, [&](int f, cv::Rect2d* box) {
+    if (f == 1) {
+      t->init(colour[0], cv::Rect(seq.box(1)));
+      return true;
+    }
+    cv::Rect r;
+    const bool ok = t->update(colour[f - 1], r);
+    *box = cv::Rect2d(r);
+    return ok;
+  });
+}
+#endif
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  cv::setNumThreads(1);
+  bool ours_only = false;
+  std::set<std::string> only;
+  for (int i = 1; i < argc; ++i) {
+    const std::string a = argv[i];
+    if (a == "--ours-only") ours_only = true;
+    else if (a == "--no-appearance") g_appearance = false;
+    else if (a == "--set" && i + 1 < argc) {
+      const std::string kv = argv[++i];
+      const size_t eq = kv.find('=');
+      g_set[kv.substr(0, eq)] = std::atof(kv.substr(eq + 1).c_str());
+    }
+    else if (a == "--trace") g_trace = ours_only = true;
+    else only.insert(a);
+  }
+  const char* env = std::getenv("IMT_SHARED_DATA");
+  const std::string dir = env && *env ? env : IMT_SHARED_DATA_DIR;
+  std::vector<imt::test::BoxSequence> sequences = imt::test::BoxSequence::all(dir);
+  if (sequences.empty()) {
+    std::fprintf(stderr, "no real sequences with box ground truth under %s\n", dir.c_str());
+    return 1;
+  }
+  std::printf("Region tracking on real video (%s), one thread, first frame's box given\n", dir.c_str());
+  std::printf("| sequence | tracker | frames | success AUC | mean IoU | P@20px | frames/s |\n");
+  std::printf("|---|---|---|---|---|---|---|\n");
+  std::map<std::string, std::vector<Row>> rows;  // tracker -> one row per sequence
+  for (const imt::test::BoxSequence& seq : sequences) {
+    if (!only.empty() && !only.count(seq.name())) continue;
+    std::vector<cv::Mat> gray, colour;
+    for (int f = 1; f <= seq.frames(); ++f) {
+      colour.push_back(seq.colour(f));
+      if (colour.back().empty()) {
+        std::fprintf(stderr, "%s: frame %d cannot be read\n", seq.name().c_str(), f);
+        return 1;
+      }
+      cv::Mat g;
+      cv::cvtColor(colour.back(), g, cv::COLOR_BGR2GRAY);
+      gray.push_back(g);
+    }
+    std::vector<std::pair<std::string, Row>> results;
+    results.emplace_back("instant_motion_tracking", runOurs(seq, gray));
+#ifdef IMT_HAVE_OPENCV_TRACKING
+    if (!ours_only) {
+      results.emplace_back("OpenCV KCF", runPeer(seq, colour, cv::TrackerKCF::create()));
+      results.emplace_back("OpenCV CSRT", runPeer(seq, colour, cv::TrackerCSRT::create()));
+    }
+#endif
+    for (const auto& [name, r] : results) {
+      std::printf("| %s | %s | %d | %.3f | %.3f | %.3f | %.1f |\n", seq.name().c_str(), name.c_str(), seq.frames(),
+                  r.auc, r.iou, r.p20, r.fps);
+      std::fflush(stdout);
+      rows[name].push_back(r);
+    }
+  }
+  for (const auto& [name, v] : rows) {
+    Row m;
+    for (const Row& r : v) {
+      m.auc += r.auc / v.size();
+      m.iou += r.iou / v.size();
+      m.p20 += r.p20 / v.size();
+      m.fps += r.fps / v.size();
+    }
+    std::printf("| **mean** | %s | | %.3f | %.3f | %.3f | %.1f |\n", name.c_str(), m.auc, m.iou, m.p20, m.fps);
+  }
+#ifndef IMT_HAVE_OPENCV_TRACKING
+  std::printf("(OpenCV tracking module not found: KCF/CSRT rows skipped; install libopencv-contrib-dev)\n");
+#endif
+  return 0;
+}

@@ -1,0 +1,56 @@
+// The look of a region: a small gray template of its box, matched by
+// normalised cross-correlation (OpenCV's matchTemplate) around where the
+// motion data puts the region, at three scales. The region tracker uses it to
+// correct slow drift, to notice that a region no longer looks like itself,
+// and to find a lost region again (region_tracker.h).
+//
+// The template has a fixed pixel size for the region's life: the box scaled
+// so its longer side is `size` px (never enlarged: a small box keeps its own
+// pixels). It is the look at placement, blended with later looks only on
+// confident frames, so it follows slow changes of view and light without
+// taking on what drifted into the box.
+//
+// Usage:
+//   imt::RegionAppearance a;
+//   if (imt::RegionAppearance::create(gray, box, 40, &a)) {
+//     imt::AppearanceMatch m = a.match(next_gray, predicted_box, 0.35);
+//     if (m.found && m.score > 0.6) use(m.box);
+//     a.blend(next_gray, final_box, 0.1);
+//   }
+// Threading: plain value type; const methods may run concurrently.
+#pragma once
+
+#include <opencv2/core.hpp>
+
+namespace imt {
+
+// The best match of a template in a search window.
+struct AppearanceMatch {
+  bool found = false;        // false: no window to search (the box left the image, or too small)
+  cv::Rect2d box;            // the best-matching box (px)
+  double score = -1;         // its normalised cross-correlation, -1 .. 1
+  double score_at_box = -1;  // the same at the box searched around (no shift, same scale)
+};
+
+class RegionAppearance {
+ public:
+  // The look of `box` in `gray` (CV_8UC1), scaled to `size` px along its
+  // longer side (at most 1:1). False when the box is mostly outside the
+  // image, smaller than 4 px, or flat (no contrast to match).
+  static bool create(const cv::Mat& gray, const cv::Rect2d& box, int size, RegionAppearance* out);
+
+  bool valid() const { return !templ_.empty(); }
+  // Searches `gray` around `box`: shifts up to `margin` times the box's
+  // sides either way, at the box's scale and 5% either side.
+  AppearanceMatch match(const cv::Mat& gray, const cv::Rect2d& box, double margin) const;
+  // The look of `box` in `gray` blended in with weight `rate` (0 .. 1).
+  void blend(const cv::Mat& gray, const cv::Rect2d& box, double rate);
+  // Matches over the whole image at the scale of `box` (its size, anywhere):
+  // finding a region that was lost.
+  AppearanceMatch matchAnywhere(const cv::Mat& gray, const cv::Rect2d& box) const;
+
+ private:
+  cv::Mat templ_;  // CV_32F, fixed size for the region's life
+};
+
+}  // namespace imt

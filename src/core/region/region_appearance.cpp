@@ -1,0 +1,132 @@
+#include "instant_motion_tracking/core/region/region_appearance.h"
+
+#include <opencv2/imgproc.hpp>
+
+#include <algorithm>
+#include <cmath>
+
+namespace imt {
+namespace {
+
+// `rect` of `gray` resampled to `size` (area averaging), as CV_32F; the part
+// outside the image repeats its border. False when less than `min_inside` of
+// the rect is inside the image.
+bool sample(const cv::Mat& gray, const cv::Rect2d& rect, cv::Size size, double min_inside, cv::Mat* out) {
+  if (size.width < 1 || size.height < 1 || !(rect.width >= 1 && rect.height >= 1)) return false;
+  const cv::Rect2d img(0, 0, gray.cols, gray.rows);
+  if ((rect & img).area() < min_inside * rect.area()) return false;
+  const cv::Rect r(static_cast<int>(std::floor(rect.x + 0.5)), static_cast<int>(std::floor(rect.y + 0.5)),
+                   std::max(1, static_cast<int>(std::lround(rect.width))),
+                   std::max(1, static_cast<int>(std::lround(rect.height))));
+  const cv::Rect inside = r & cv::Rect(0, 0, gray.cols, gray.rows);
+  if (inside.area() <= 0) return false;
+  cv::Mat roi = gray(inside);
+  if (inside != r) {
+    cv::copyMakeBorder(roi, roi, inside.y - r.y, r.br().y - inside.br().y, inside.x - r.x, r.br().x - inside.br().x,
+                       cv::BORDER_REPLICATE);
+  }
+  cv::Mat small;
+  cv::resize(roi, small, size, 0, 0, roi.cols > size.width ? cv::INTER_AREA : cv::INTER_LINEAR);
+  small.convertTo(*out, CV_32F);
+  return true;
+}
+
+// Sub-pixel offset of a peak from its two neighbours (parabola), in [-0.5, 0.5].
+double peakOffset(float left, float centre, float right) {
+  const double d = left - 2.0 * centre + right;
+  if (!(d < 0)) return 0;
+  return std::clamp(0.5 * (left - right) / d, -0.5, 0.5);
+}
+
+// The best match of `templ` in `window` (both CV_32F), `scale` template px
+// per image px in x and y, `origin` the window's top-left in the image.
+AppearanceMatch bestMatch(const cv::Mat& templ, const cv::Mat& window, cv::Point2d origin, double sx, double sy,
+                          cv::Mat* response) {
+  AppearanceMatch m;
+  if (window.cols < templ.cols || window.rows < templ.rows) return m;
+  cv::matchTemplate(window, templ, *response, cv::TM_CCOEFF_NORMED);
+  double best;
+  cv::Point at;
+  cv::minMaxLoc(*response, nullptr, &best, nullptr, &at);
+  if (!std::isfinite(best)) return m;
+  const cv::Mat& r = *response;
+  double ox = 0, oy = 0;
+  if (at.x > 0 && at.x + 1 < r.cols)
+    ox = peakOffset(r.at<float>(at.y, at.x - 1), r.at<float>(at.y, at.x), r.at<float>(at.y, at.x + 1));
+  if (at.y > 0 && at.y + 1 < r.rows)
+    oy = peakOffset(r.at<float>(at.y - 1, at.x), r.at<float>(at.y, at.x), r.at<float>(at.y + 1, at.x));
+  m.found = true;
+  m.score = best;
+  m.box = cv::Rect2d(origin.x + (at.x + ox) / sx, origin.y + (at.y + oy) / sy, templ.cols / sx, templ.rows / sy);
+  return m;
+}
+
+}  // namespace
+
+bool RegionAppearance::create(const cv::Mat& gray, const cv::Rect2d& box, int size, RegionAppearance* out) {
+  if (gray.empty() || gray.type() != CV_8UC1 || !(box.width >= 4 && box.height >= 4) || size < 4) return false;
+  const double s = std::min(1.0, size / std::max(box.width, box.height));
+  const cv::Size tsize(std::max(4, static_cast<int>(std::lround(box.width * s))),
+                       std::max(4, static_cast<int>(std::lround(box.height * s))));
+  cv::Mat t;
+  if (!sample(gray, box, tsize, 0.75, &t)) return false;
+  cv::Scalar mean, stddev;
+  cv::meanStdDev(t, mean, stddev);
+  if (stddev[0] < 2.0) return false;  // flat: every shift would match as well
+  out->templ_ = t;
+  return true;
+}
+
+AppearanceMatch RegionAppearance::match(const cv::Mat& gray, const cv::Rect2d& box, double margin) const {
+  AppearanceMatch best;
+  if (!valid() || gray.empty() || !(box.width >= 1 && box.height >= 1)) return best;
+  cv::Mat window, response;
+  for (const double scale : {1.0, 1.0 / 1.05, 1.05}) {
+    const double w = box.width * scale, h = box.height * scale;
+    const cv::Point2d c(box.x + box.width / 2, box.y + box.height / 2);
+    const double sx = templ_.cols / w, sy = templ_.rows / h;
+    const cv::Rect2d area(c.x - w / 2 - margin * w, c.y - h / 2 - margin * h, w * (1 + 2 * margin),
+                          h * (1 + 2 * margin));
+    const cv::Size wsize(static_cast<int>(std::lround(area.width * sx)),
+                         static_cast<int>(std::lround(area.height * sy)));
+    if (!sample(gray, area, wsize, 0.5, &window)) continue;
+    const double ax = wsize.width / area.width, ay = wsize.height / area.height;  // the window's own scale
+    AppearanceMatch m = bestMatch(templ_, window, area.tl(), ax, ay, &response);
+    if (!m.found) continue;
+    if (scale == 1.0) {
+      // The response at the box itself (no shift): how well the prediction looks.
+      const int px = std::clamp(static_cast<int>(std::lround((box.x - area.x) * ax)), 0, response.cols - 1);
+      const int py = std::clamp(static_cast<int>(std::lround((box.y - area.y) * ay)), 0, response.rows - 1);
+      best.score_at_box = response.at<float>(py, px);
+    }
+    // A scale change must earn its place: the unscaled match wins ties.
+    const double penalty = scale == 1.0 ? 0.0 : 0.01;
+    if (m.score - penalty > best.score) {
+      const double keep = best.score_at_box;
+      best = m;
+      best.score_at_box = keep;
+    }
+  }
+  return best;
+}
+
+AppearanceMatch RegionAppearance::matchAnywhere(const cv::Mat& gray, const cv::Rect2d& box) const {
+  AppearanceMatch m;
+  if (!valid() || gray.empty() || !(box.width >= 1 && box.height >= 1)) return m;
+  const double sx = templ_.cols / box.width, sy = templ_.rows / box.height;
+  const cv::Size wsize(static_cast<int>(std::lround(gray.cols * sx)), static_cast<int>(std::lround(gray.rows * sy)));
+  cv::Mat window, response;
+  if (!sample(gray, cv::Rect2d(0, 0, gray.cols, gray.rows), wsize, 1.0, &window)) return m;
+  return bestMatch(templ_, window, cv::Point2d(0, 0), wsize.width / static_cast<double>(gray.cols),
+                   wsize.height / static_cast<double>(gray.rows), &response);
+}
+
+void RegionAppearance::blend(const cv::Mat& gray, const cv::Rect2d& box, double rate) {
+  cv::Mat now;
+  if (!valid() || !(rate > 0) || !sample(gray, box, templ_.size(), 0.75, &now)) return;
+  cv::Mat next;
+  cv::addWeighted(templ_, 1 - std::min(rate, 1.0), now, std::min(rate, 1.0), 0, next);
+  templ_ = next;  // a new buffer: states that share the old template keep it
+}
+
+}  // namespace imt

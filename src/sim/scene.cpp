@@ -199,7 +199,7 @@ std::string SceneOptions::validate() const {
     c.check(finitePose(p.T_world_plane), f + "T_world_plane", "must be a finite rigid transform",
             p.T_world_plane.matrix().row(0));
     c.check(scene_detail::knownPlaneMotion(p.motion), f + "motion",
-            "must be one of \"\", slide, slide_rotate, approach", p.motion);
+            "must be one of \"\", slide, slide_rotate, approach, follow_camera", p.motion);
     c.positive(f + "motion_period", p.motion_period, 1e6);
     c.range(f + "motion_amplitude", p.motion_amplitude, -100, 100);
     c.range(f + "motion_phase", p.motion_phase, -1e6, 1e6);
@@ -353,6 +353,9 @@ Eigen::Isometry3d SceneGenerator::T_world_cam(double t) const {
 
 Eigen::Isometry3d SceneGenerator::T_world_plane(size_t plane, double t) const {
   const ScenePlane& p = options_.planes.at(plane);
+  if (p.motion == "follow_camera")  // rigidly with the camera from its pose at t = 0
+    return T_world_cam(t) * T_world_cam(0).inverse() * p.T_world_plane *
+           scene_detail::planeMotion(p, t);
   return p.T_world_plane * scene_detail::planeMotion(p, t);
 }
 

@@ -72,7 +72,8 @@ bool knownTrajectory(const std::string& name) {
 }
 
 bool knownPlaneMotion(const std::string& name) {
-  return name.empty() || name == "slide" || name == "slide_rotate" || name == "approach";
+  return name.empty() || name == "slide" || name == "slide_rotate" || name == "approach" ||
+         name == "follow_camera";
 }
 
 Eigen::Isometry3d trajectoryPose(const std::string& name, double a, double t) {
@@ -130,6 +131,17 @@ Eigen::Isometry3d trajectoryPose(const std::string& name, double a, double t) {
                                            wave(5 * kDeg * a, 4.3, 0, t));
     return pose(R, p);
   }
+  if (name == "dolly") {
+    // Sideways along the wall at 0.75 m/s (x = -3 m at t = 0, 0 at t = 4 s),
+    // as from a moving vehicle, with its shake: a bounce of +-2 cm at 1.1 Hz,
+    // +-4 cm toward/away, yaw +-1.5, pitch +-1, roll +-1.5 deg.
+    const Eigen::Vector3d p(a * (0.75 * (t - 4.0) + wave(0.03, 3.7, 0.2, t)),
+                            wave(0.04 * a, 5.3, 0.4, t), wave(0.02 * a, 0.9, 1.0, t));
+    return pose(
+        wallView() * yawPitchRoll(wave(1.5 * kDeg * a, 2.3, 0, t), wave(1 * kDeg * a, 1.1, 0.7, t),
+                                  wave(1.5 * kDeg * a, 3.1, 0.2, t)),
+        p);
+  }
   // "still" (and anything unknown: validate() rejects unknown names).
   return pose(wallView(), Eigen::Vector3d::Zero());
 }
@@ -149,6 +161,13 @@ Eigen::Isometry3d planeMotion(const ScenePlane& plane, double t) {
             .toRotationMatrix();
   } else if (plane.motion == "approach") {
     M.translation() << 0, 0.2 * A * std::sin(wt), -A * 0.5 * (1 - std::cos(wt));
+  } else if (plane.motion == "follow_camera") {
+    // The shake relative to the camera (SceneGenerator::T_world_plane adds
+    // the camera's own motion).
+    M.translation() << A * std::sin(wt), 0.6 * A * std::sin(1.7 * wt + 1.0),
+        1.5 * A * std::sin(0.45 * wt + 2.0);
+    M.linear() = Eigen::AngleAxisd(2 * kDeg * std::sin(1.3 * wt + 0.5), Eigen::Vector3d::UnitZ())
+                     .toRotationMatrix();
   }
   return M;
 }
@@ -212,6 +231,60 @@ bool presetLayout(const std::string& name, SceneOptions* o) {
     onWall(ScenePlane::Kind::kCard, 4, -0.8, -0.55, 0.5, 0.4, 0.001);  // static textured patch
     ScenePlane* flat = onWall(ScenePlane::Kind::kFeatureless, 5, 0.8, -0.55, 0.5, 0.4, 0.001);
     flat->flat_gray = 150;
+  } else if (name == "region_small") {
+    wall(10.0, 7.5);
+    // A 6.6 x 16 cm card 0.4 m in front of the wall: ~35 x 85 px at 1280x720,
+    // moving about at up to 0.19 m/s (~3 px/frame), against the pan at first.
+    ScenePlane* c = onWall(ScenePlane::Kind::kCard, 1, -0.1, -0.05, 0.066, 0.161, 0.4);
+    c->motion = "slide";
+    c->motion_amplitude = 0.15;
+    c->motion_period = 5.0;
+    c->motion_phase = M_PI;
+  } else if (name == "region_follow") {
+    wall(14.0, 9.0);
+    // A 25 x 20 cm card 1 m ahead of the camera, riding with it (follow_camera)
+    // and shaking: +-3 cm across (+-17 px), +-4.5 cm in depth, +-2 deg roll.
+    ScenePlane c;
+    c.kind = ScenePlane::Kind::kCard;
+    c.id = 1;
+    c.width_m = 0.25;
+    c.height_m = 0.2;
+    c.T_world_plane = trajectoryPose("dolly", o->trajectory_amplitude, 0.0) *
+                      Eigen::Translation3d(0.0, 0.05, 1.0);
+    c.motion = "follow_camera";
+    c.motion_amplitude = 0.03;
+    c.motion_period = 2.5;
+    c.texture_seed = 2;
+    o->planes.push_back(c);
+  } else if (name == "region_static_covered") {
+    wall(10.0, 7.5);
+    // The static patch (1), and card 2 0.5 m in front of the wall: at t = 0
+    // it covers the right part of the patch, then moves off to the right
+    // (0.4 m/s) and down, and does not come back within 6 s.
+    onWall(ScenePlane::Kind::kCard, 1, -0.3, -0.1, 0.5, 0.4, 0.001);
+    ScenePlane* c = onWall(ScenePlane::Kind::kCard, 2, 0.045, -0.08, 0.45, 0.35, 0.5);
+    c->motion = "slide";
+    c->motion_amplitude = 1.0;
+    c->motion_period = 16.0;
+  } else if (name == "region_midstart") {
+    wall(10.0, 7.5);
+    // One card 0.6 m in front of the wall: slides +-0.4 m, rolls +-15 deg
+    // and tilts +-10 deg (up to ~4 px/frame).
+    ScenePlane* c = onWall(ScenePlane::Kind::kCard, 1, 0.0, 0.0, 0.45, 0.35, 0.6);
+    c->motion = "slide_rotate";
+    c->motion_amplitude = 0.8;
+    c->motion_period = 6.0;
+  } else if (name == "region_hidden") {
+    wall(10.0, 7.5);
+    // The target card (1), 0.4 m in front of the wall, slides right behind an
+    // opaque textured panel (2) 1 m in front of the wall, turns there (its
+    // rightmost point at t = 4 s) and comes back out.
+    ScenePlane* c = onWall(ScenePlane::Kind::kCard, 1, -0.3, 0.0, 0.3, 0.24, 0.4);
+    c->motion = "slide";
+    c->motion_amplitude = 0.5;
+    c->motion_period = 10.0;
+    c->motion_phase = -0.3 * M_PI;
+    onWall(ScenePlane::Kind::kCard, 2, 0.125, 0.0, 0.3, 1.2, 1.0);
   } else if (name == "poster_orbit") {
     wall(14.0, 9.0);
     ScenePlane* poster = onWall(ScenePlane::Kind::kTarget, 1, 0, 0, 0.6, 0.45, 0.001);
@@ -247,17 +320,30 @@ bool presetLayout(const std::string& name, SceneOptions* o) {
 }  // namespace scene_detail
 
 std::vector<std::string> SceneOptions::presetNames() {
-  return {"wall_pan", "cards",  "poster_orbit", "floor_walk",
-          "planar",   "rotate", "still",        "featureless_wall"};
+  std::vector<std::string> names = {"wall_pan", "cards",  "poster_orbit", "floor_walk",
+                                    "planar",   "rotate", "still",        "featureless_wall"};
+  for (const char* region_class : {"region_small", "region_follow", "region_static_covered",
+                                   "region_midstart", "region_hidden"})
+    names.push_back(region_class);
+  return names;
 }
 
 std::vector<std::string> SceneOptions::trajectoryNames() {
-  return {"pan", "zoom", "planar", "rotate", "still", "orbit", "walk"};
+  return {"pan", "zoom", "planar", "rotate", "still", "orbit", "walk", "dolly"};
 }
 
 std::optional<SceneOptions> SceneOptions::fromPreset(const std::string& name) {
   SceneOptions o;  // the defaults are wall_pan's
   o.preset = name;
+  // The region_* failure classes: 8 s or less (fast tests), with the motion
+  // blur of a half-frame exposure (1/60 s: 1.5-3 px at their speeds).
+  auto regionClass = [&o](const std::string& trajectory, double amplitude, double duration) {
+    o.trajectory = trajectory;
+    o.trajectory_amplitude = amplitude;
+    o.duration = duration;
+    o.exposure = 0.5 / o.fps;
+    o.blur_samples = 4;
+  };
   if (name == "wall_pan" || name == "featureless_wall") {
     o.trajectory = "pan";
   } else if (name == "cards") {
@@ -276,6 +362,19 @@ std::optional<SceneOptions> SceneOptions::fromPreset(const std::string& name) {
   } else if (name == "still") {
     o.trajectory = name;
     o.brightness_amplitude = 0;  // consecutive frames differ by sensor noise only
+  } else if (name == "region_small") {
+    regionClass("pan", 0.4, 8.0);
+    o.width = 1280;
+    o.height = 720;
+    o.blur_samples = 3;  // ~50 ms per 1280x720 frame, each further sample ~15 ms
+  } else if (name == "region_follow") {
+    regionClass("dolly", 1.0, 8.0);
+  } else if (name == "region_static_covered") {
+    regionClass("pan", 0.4, 6.0);
+  } else if (name == "region_midstart") {
+    regionClass("pan", 0.6, 8.0);
+  } else if (name == "region_hidden") {
+    regionClass("pan", 0.4, 8.0);
   } else {
     return std::nullopt;
   }

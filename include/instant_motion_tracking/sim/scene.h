@@ -20,7 +20,8 @@
 //
 // Presets (fromPreset; all seeded: textures, sensor and IMU noise derive from
 // `seed`, the trajectories are fixed curves). Walls are 10 x 7.5 m (14 x 9 m
-// for poster_orbit) and fill every frame; figures are at 640x480, hfov 60.
+// for poster_orbit and region_follow) and fill every frame; figures are at
+// 640x480 (region_small: 1280x720), hfov 60.
 //   wall_pan      textured wall 2.5 m ahead; camera pans, yaws, rolls and moves
 //                 toward/away (zoom): 2-5 px/frame (mean 3.5). One background
 //                 plane -> background_homography in every frame. 10 s.
@@ -53,6 +54,31 @@
 //                 differ by sensor noise; the IMU reads gravity only).
 //   featureless_wall  a flat-coloured wall under the wall_pan trajectory (no
 //                 texture anywhere: motion estimation must report failure).
+// Region-tracking failure classes (issue 13; test_region_failure_classes.cpp):
+// each isolates one way region tracking fails on real video, with the target
+// as region id 1. Motion blur of a 1/60 s exposure (exposure, blur_samples).
+//   region_small  1280x720: a 6.6 x 16 cm card (~35 x 85 px; ~9 x 21 px at a
+//                 320 px analysis width) 0.4 m in front of the wall, sliding
+//                 about at up to ~3 px/frame (of 1280) while the camera pans
+//                 slowly (pan at 0.4). 8 s.
+//   region_follow a 25 x 20 cm card 1 m ahead of the camera rides with it
+//                 ("follow_camera": +-17 px and +-4.5% scale of shake in the
+//                 image) while the camera dollies along a 14 x 9 m wall at
+//                 0.75 m/s (the wall streams past at ~5.5 px/frame) with
+//                 vehicle shake ("dolly"). 8 s.
+//   region_static_covered  a static textured patch on the wall (1); card 2,
+//                 0.5 m in front of the wall, covers 36% of it at t = 0 and
+//                 has left it at 0.4 s (moving off at ~3.5 px/frame), not to
+//                 come back. Pan at 0.4. 6 s.
+//   region_midstart  a card 0.6 m in front of the wall sliding +-0.4 m,
+//                 rolling +-15 and tilting +-10 deg ("slide_rotate"), under
+//                 the cards pan (0.6): for a region given at the middle frame
+//                 and tracked both ways. 8 s.
+//   region_hidden a 30 x 24 cm card 0.4 m in front of the wall slides
+//                 (~2 px/frame) behind an opaque textured panel (2, 1 m in
+//                 front of the wall), is wholly hidden for 2.0 s (frames
+//                 81-140, whatever the seed), and comes back out the way it
+//                 went in. Pan at 0.4. 8 s.
 //
 // Rendering: each plane is inverse-mapped (texture pixel -> image pixel
 // homography from K, T_cam_world(t), T_world_plane(t)) with warpPerspective
@@ -120,8 +146,14 @@ struct ScenePlane {
   //                   tilt about y +-10 deg
   //   "approach"      toward the viewer (-z) by A (1 - cos wt) / 2 (scale
   //                   change) + a small slide 0.2 A sin(wt) along y
+  //   "follow_camera" rides rigidly with the camera, T_world_plane being its
+  //                   pose at t = 0, and shakes: T_world_plane(t) =
+  //                   T_world_cam(t) T_world_cam(0)^-1 T_world_plane shake(t),
+  //                   shake: x A sin(wt), y 0.6 A sin(1.7 wt + 1),
+  //                   z 1.5 A sin(0.45 wt + 2), in-plane rotation
+  //                   2 deg sin(1.3 wt + 0.5) (a car followed by a car)
   // with A = motion_amplitude, w = 2 pi / motion_period.
-  std::string motion;             // "" | "slide" | "slide_rotate" | "approach"
+  std::string motion;             // "" | "slide" | "slide_rotate" | "approach" | "follow_camera"
   double motion_amplitude = 0.3;  // m (slide/approach) scale of the motion
   double motion_period = 4.0;     // s
   double motion_phase = 0.0;      // rad, added to w t
@@ -206,6 +238,10 @@ struct SceneOptions {
   //           distance 0.8..2.4 m, roll +-30 deg (poster_orbit)
   //   walk    1.2 m above the floor z = 0 heading +y at 0.15 m/s, pitch -22 +- 10,
   //           roll +-5 deg, a 4.5 s yaw excursion to 50 deg from t = 3 s (floor_walk)
+  //   dolly   sideways along the wall at 0.75 m/s (x = 0.75 (t - 4) m) with
+  //           vehicle shake: +-2 cm bounce at 1.1 Hz, +-4 cm toward/away,
+  //           yaw +-1.5, pitch +-1, roll +-1.5 deg (region_follow; a 14 m wide
+  //           wall fills the view for t in [0, 11] s)
   std::string trajectory = "pan";
   double trajectory_amplitude = 1.0;  // scales the trajectory's motion (0 = still)
 

@@ -1,0 +1,259 @@
+// Region tracking on the rendered failure-class presets of issue 13 (scene.h:
+// region_small, region_follow, region_static_covered, region_midstart,
+// region_hidden), each isolating one way region tracking fails on real video.
+// The whole pipeline runs as live: a TrackingSession in Mode::kLive with the
+// default options analyses each frame; the region is given at its true box
+// right after the frame it belongs to was analysed. Frames after it are read
+// from the live results, frames up to it (tracked backwards) with
+// seekRegions(). Scored by mean IoU (a lost region scores 0) against the
+// generator's boxes over the frames where at least half of the target is seen
+// (in the image and not covered), the frame the region is given at excluded.
+//
+// The issue's goal is 0.85 for every class and half. The floors below are
+// today's figures less 0.05, so that a regression fails while the tracker is
+// being improved; raise them as it improves.
+#include "../box_metrics.h"
+#include "instant_motion_tracking/core/tracking_session.h"
+#include "instant_motion_tracking/sim/scene.h"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <functional>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace imt {
+namespace {
+
+using test::iouClipped;
+
+constexpr uint32_t kId = 1;     // the target is plane id 1 in every preset
+constexpr double kGoal = 0.85;  // the issue's goal, printed beside each figure
+
+const FrameTruth::Region* region(const FrameTruth& f, uint32_t id) {
+  for (const auto& r : f.regions)
+    if (r.id == id) return &r;
+  return nullptr;
+}
+
+// The fraction of the target that is seen: in the image and not covered.
+double seenFraction(const FrameTruth& f) {
+  const FrameTruth::Region* r = region(f, kId);
+  return r ? r->visible_fraction * (1 - r->occluded_fraction) : 0;
+}
+
+// The first frame from `from` on where the target is wholly in view and
+// uncovered (a box given on a partly seen target stands for only that part),
+// -1 when there is none.
+int firstWholeFrame(const std::vector<FrameTruth>& truth, int from) {
+  for (int k = std::max(0, from); k < static_cast<int>(truth.size()); ++k)
+    if (seenFraction(truth[k]) > 0.999) return k;
+  return -1;
+}
+
+// A preset run through a live session, with the target's state at every frame.
+struct Tracked {
+  std::unique_ptr<SceneGenerator> scene;
+  std::vector<FrameTruth> truth;
+  std::vector<std::optional<RegionState>> states;  // per frame; none: not reported
+  int start = -1;                                  // the frame the region was given at
+  cv::Size size;
+
+  // Mean IoU over frames [from, to) (the start frame excluded) where at
+  // least half of the target is seen; *n: how many frames were scored.
+  double meanIou(int from, int to, int* n) const {
+    double sum = 0;
+    *n = 0;
+    for (int k = std::max(0, from); k < std::min(to, static_cast<int>(truth.size())); ++k) {
+      if (k == start || seenFraction(truth[k]) < 0.5) continue;
+      const std::optional<RegionState>& s = states[k];
+      if (s && s->status != RegionStatus::kLost)
+        sum += iouClipped(s->box, region(truth[k], kId)->box, size);
+      ++*n;
+    }
+    return *n ? sum / *n : 0;
+  }
+};
+
+// Renders preset `name` (seed 1) through a live session and gives the target's
+// true box at the frame `chooseStart` picks from the truth.
+Tracked track(const std::string& name,
+              const std::function<int(const std::vector<FrameTruth>&)>& chooseStart) {
+  Tracked t;
+  std::optional<SceneOptions> opt = SceneOptions::fromPreset(name);
+  EXPECT_TRUE(opt) << name;
+  if (!opt) return t;
+  opt->seed = 1;
+  std::string err;
+  t.scene = SceneGenerator::create(*opt, &err);
+  EXPECT_TRUE(t.scene) << err;
+  if (!t.scene) return t;
+  const int frames = t.scene->frameCount();
+  for (int k = 0; k < frames; ++k) t.truth.push_back(t.scene->frameTruth(k));
+  t.start = chooseStart(t.truth);
+  EXPECT_GE(t.start, 0) << name;
+  if (t.start < 0) return t;
+  t.size = cv::Size(opt->width, opt->height);
+  t.states.resize(frames);
+
+  PipelineOptions po;  // the defaults, with a cache that holds the whole scene
+  po.cache_seconds = std::max(po.cache_seconds, opt->duration + 1.0);
+  TrackingSession session(po, TrackingSession::Mode::kLive);
+  session.setCameraInfo(t.scene->intrinsics());
+  // The live results: the target's state at each frame after the start.
+  auto takeResults = [&] {
+    for (FrameResult& r : session.takeResults()) {
+      const int i = static_cast<int>(std::lround((r.motion.stamp - opt->start_time) * opt->fps));
+      for (const RegionState& s : r.regions)
+        if (s.id == kId && i > t.start && i < frames) t.states[i] = s;
+    }
+  };
+  for (int k = 0; k < frames; ++k) {
+    const double stamp = t.scene->frameStamp(k);
+    session.analyze(t.scene->renderFrame(k), stamp);
+    session.advance();
+    takeResults();
+    if (k == t.start) {
+      uint32_t id = 0;
+      EXPECT_TRUE(session.addRegion(kId, stamp, region(t.truth[k], kId)->box, &id, &err)) << err;
+      EXPECT_EQ(id, kId);
+    }
+  }
+  session.advance(true);
+  takeResults();
+  // The frames up to the start: tracked backwards through the cache.
+  for (int k = 0; k <= t.start; ++k) {
+    std::vector<RegionState> s;
+    EXPECT_TRUE(session.seekRegions(t.scene->frameStamp(k), {kId}, &s, &err)) << err;
+    if (!s.empty()) t.states[k] = s[0];
+  }
+  return t;
+}
+
+int firstWhole(const std::vector<FrameTruth>& truth) { return firstWholeFrame(truth, 0); }
+
+// 1. A small target: ~35 x 85 px at 1280x720 (~9 x 21 px at the 320 px
+// analysis width), moving on its own in front of a textured wall while the
+// camera pans slowly.
+TEST(RegionFailureClass, SmallTargetAt720p) {
+  const Tracked t = track("region_small", firstWhole);
+  ASSERT_FALSE(t.states.empty());
+  const cv::Rect2d b = region(t.truth[t.start], kId)->box;
+  int n = 0;
+  const double iou = t.meanIou(0, static_cast<int>(t.truth.size()), &n);
+  std::printf(
+      "region_small: target %.0f x %.0f px at %dx%d, given at frame %d: mean IoU %.3f over %d "
+      "frames (goal %.2f)\n",
+      b.width, b.height, t.size.width, t.size.height, t.start, iou, n, kGoal);
+  EXPECT_GT(n, 200);
+  // Measured 0.101 (seeds 2, 3: 0.101, 0.114): the target gets no features,
+  // turns featureless and rides the camera motion. Goal 0.85.
+  EXPECT_GE(iou, 0.05);
+}
+
+// 2. A target that moves with the camera (a card riding with it, shaking a
+// little in the image) while the textured background streams past.
+TEST(RegionFailureClass, TargetMovingWithTheCamera) {
+  const Tracked t = track("region_follow", firstWhole);
+  ASSERT_FALSE(t.states.empty());
+  int n = 0;
+  const double iou = t.meanIou(0, static_cast<int>(t.truth.size()), &n);
+  std::printf("region_follow: given at frame %d: mean IoU %.3f over %d frames (goal %.2f)\n",
+              t.start, iou, n, kGoal);
+  EXPECT_GT(n, 200);
+  // Measured 0.923 (seeds 2, 3: 0.932, 0.939), drifting slowly (IoU 0.98 at
+  // 0.7 s, 0.89 at 7 s). Goal 0.85.
+  EXPECT_GE(iou, 0.87);
+}
+
+// 3. A static wall patch that a moving card partly covers at the init frame
+// and then leaves: the region must stay on the patch.
+TEST(RegionFailureClass, StaticPatchPartlyCoveredAtInit) {
+  const Tracked t =
+      track("region_static_covered", [](const std::vector<FrameTruth>&) { return 0; });
+  ASSERT_FALSE(t.states.empty());
+  const FrameTruth::Region* r0 = region(t.truth[0], kId);
+  int uncovered = -1;  // the first frame the card no longer covers the patch
+  for (int k = 0; k < static_cast<int>(t.truth.size()) && uncovered < 0; ++k)
+    if (region(t.truth[k], kId)->occluded_fraction < 0.001) uncovered = k;
+  int n = 0;
+  const double iou = t.meanIou(0, static_cast<int>(t.truth.size()), &n);
+  std::printf(
+      "region_static_covered: %.0f%% of the patch covered at init, uncovered from frame %d: "
+      "mean IoU %.3f over %d frames (goal %.2f)\n",
+      100 * r0->occluded_fraction, uncovered, iou, n, kGoal);
+  EXPECT_GT(n, 150);
+  // Measured 0.935 (seeds 2, 3: 0.949, 0.951): the region stays on the patch.
+  // Goal 0.85.
+  EXPECT_GE(iou, 0.88);
+}
+
+// 4. A region given at the middle frame, tracked backwards and forwards
+// from there: each half is scored on its own.
+TEST(RegionFailureClass, GivenMidSequenceBothWays) {
+  const Tracked t = track("region_midstart", [](const std::vector<FrameTruth>& truth) {
+    return firstWholeFrame(truth, static_cast<int>(truth.size()) / 2);
+  });
+  ASSERT_FALSE(t.states.empty());
+  int nb = 0, nf = 0;
+  const double backward = t.meanIou(0, t.start, &nb);
+  const double forward = t.meanIou(t.start + 1, static_cast<int>(t.truth.size()), &nf);
+  std::printf(
+      "region_midstart: given at frame %d: backward half mean IoU %.3f over %d frames, "
+      "forward half %.3f over %d frames (goal %.2f each)\n",
+      t.start, backward, nb, forward, nf, kGoal);
+  EXPECT_GT(nb, 100);
+  EXPECT_GT(nf, 100);
+  // Measured backward 0.832, forward 0.802 (seeds 2, 3: 0.828 / 0.800,
+  // 0.828 / 0.837). Goal 0.85 each.
+  EXPECT_GE(backward, 0.78);
+  EXPECT_GE(forward, 0.75);
+}
+
+// 5. A target hidden completely (behind an opaque panel) for 2 s and then
+// back in view: scored before the hiding, and from 0.5 s after it is wholly
+// back in view.
+TEST(RegionFailureClass, HiddenFor2sThenBack) {
+  const Tracked t = track("region_hidden", firstWhole);
+  ASSERT_FALSE(t.states.empty());
+  const int frames = static_cast<int>(t.truth.size());
+  int hidden_from = -1, hidden_to = -1;  // the hidden frames: [hidden_from, hidden_to)
+  for (int k = 0; k < frames; ++k) {
+    if (seenFraction(t.truth[k]) < 0.001) {
+      if (hidden_from < 0) hidden_from = k;
+      hidden_to = k + 1;
+    }
+  }
+  ASSERT_GE(hidden_from, 0) << "the target is never hidden";
+  const double fps = t.scene->options().fps;
+  const int back = firstWholeFrame(t.truth, hidden_to);
+  ASSERT_GE(back, 0) << "the target does not come back";
+  const int after = back + static_cast<int>(std::lround(0.5 * fps));
+  int nb = 0, na = 0;
+  const double before = t.meanIou(0, hidden_from, &nb);
+  const double again = t.meanIou(after, frames, &na);
+  std::printf(
+      "region_hidden: given at frame %d, hidden over frames %d-%d (%.2f s), wholly back at "
+      "frame %d: mean IoU before %.3f over %d frames, from 0.5 s after %.3f over %d frames "
+      "(goal %.2f each)\n",
+      t.start, hidden_from, hidden_to - 1, (hidden_to - hidden_from) / fps, back, before, nb, again,
+      na, kGoal);
+  // The preset's point: hidden for about 2 s.
+  EXPECT_NEAR((hidden_to - hidden_from) / fps, 2.0, 0.2);
+  EXPECT_GT(nb, 30);
+  EXPECT_GT(na, 30);
+  // Measured before 0.831, after 0.551 (seeds 2, 3: 0.867 / 0.469, 0.809 /
+  // 0.074): the region stays "tracked" through the hiding, on 7-9 inliers
+  // that cannot be the target's, its box grows by ~40%, and once the target
+  // is back it overlaps it only partly. Goal 0.85 each.
+  EXPECT_GE(before, 0.78);
+  EXPECT_GE(again, 0.50);
+}
+
+}  // namespace
+}  // namespace imt

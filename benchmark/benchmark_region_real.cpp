@@ -164,9 +164,7 @@ int main(int argc, char** argv) {
         std::fprintf(stderr, "%s: frame %d cannot be read\n", seq.name().c_str(), f);
         return 1;
       }
-      cv::Mat g;
-      cv::cvtColor(colour.back(), g, cv::COLOR_BGR2GRAY);
-      gray.push_back(g);
+      gray.push_back(seq.gray(f));
     }
     std::vector<std::pair<std::string, Row>> results;
     results.emplace_back("instant_motion_tracking", runOurs(seq, gray));

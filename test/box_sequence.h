@@ -15,6 +15,7 @@
 
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 
 #include <algorithm>
 #include <cmath>
@@ -52,7 +53,14 @@ class BoxSequence {
   const cv::Rect2d& box(int f) const { return boxes_[f - 1]; }
   // Frame f in colour / gray (empty when it cannot be read).
   cv::Mat colour(int f) const { return cv::imread(path(f), cv::IMREAD_COLOR); }
-  cv::Mat gray(int f) const { return cv::imread(path(f), cv::IMREAD_GRAYSCALE); }
+  // Gray as a camera driver's colour frame becomes mono (cv_bridge's
+  // cvtColor), not libjpeg's own gray decode: the two differ in the last bit.
+  cv::Mat gray(int f) const {
+    const cv::Mat c = colour(f);
+    cv::Mat g;
+    if (!c.empty()) cv::cvtColor(c, g, cv::COLOR_BGR2GRAY);
+    return g;
+  }
 
  private:
   std::string path(int f) const {

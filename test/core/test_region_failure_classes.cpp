@@ -151,9 +151,10 @@ TEST(RegionFailureClass, SmallTargetAt720p) {
       "frames (goal %.2f)\n",
       b.width, b.height, t.size.width, t.size.height, t.start, iou, n, kGoal);
   EXPECT_GT(n, 200);
-  // Measured 0.101 (seeds 2, 3: 0.101, 0.114): the target gets no features,
-  // turns featureless and rides the camera motion. Goal 0.85.
-  EXPECT_GE(iou, 0.05);
+  // Measured 0.497 (0.101 on motion data alone: the target gets no
+  // features, turns featureless and rides the camera motion; its look now
+  // pulls it back). Floor 0.05 under it. Goal 0.85.
+  EXPECT_GE(iou, 0.45);
 }
 
 // 2. A target that moves with the camera (a card riding with it, shaking a
@@ -209,10 +210,11 @@ TEST(RegionFailureClass, GivenMidSequenceBothWays) {
       t.start, backward, nb, forward, nf, kGoal);
   EXPECT_GT(nb, 100);
   EXPECT_GT(nf, 100);
-  // Measured backward 0.832, forward 0.802 (seeds 2, 3: 0.828 / 0.800,
-  // 0.828 / 0.837). Goal 0.85 each.
+  // Measured backward 0.832, forward 0.819 (on motion data alone 0.832 /
+  // 0.802; seeds 2, 3 then: 0.828 / 0.800, 0.828 / 0.837). Floors 0.05
+  // under. Goal 0.85 each.
   EXPECT_GE(backward, 0.78);
-  EXPECT_GE(forward, 0.75);
+  EXPECT_GE(forward, 0.77);
 }
 
 // 5. A target hidden completely (behind an opaque panel) for 2 s and then
@@ -247,12 +249,13 @@ TEST(RegionFailureClass, HiddenFor2sThenBack) {
   EXPECT_NEAR((hidden_to - hidden_from) / fps, 2.0, 0.2);
   EXPECT_GT(nb, 30);
   EXPECT_GT(na, 30);
-  // Measured before 0.831, after 0.551 (seeds 2, 3: 0.867 / 0.469, 0.809 /
-  // 0.074): the region stays "tracked" through the hiding, on 7-9 inliers
-  // that cannot be the target's, its box grows by ~40%, and once the target
-  // is back it overlaps it only partly. Goal 0.85 each.
+  // Measured before 0.833, after 0.743 (on motion data alone 0.831 / 0.551;
+  // seeds 2, 3 then: 0.867 / 0.469, 0.809 / 0.074): the region stays
+  // "tracked" through the hiding, on 7-9 inliers that cannot be the
+  // target's, and its box grows; its look pulls it back onto the target
+  // once it is out again. Floors 0.05 under. Goal 0.85 each.
   EXPECT_GE(before, 0.78);
-  EXPECT_GE(again, 0.50);
+  EXPECT_GE(again, 0.69);
 }
 
 }  // namespace

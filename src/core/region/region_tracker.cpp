@@ -275,12 +275,13 @@ void RegionTracker::checkAppearance(const RegionState& state, RegionState* next,
       const bool first_agrees = first.found && first.score >= o.appearance_lost_score && std::hypot(d.x, d.y) <= tolerance;
       // A region the features carry firmly may change its look (turn, tilt)
       // beyond the first look's recognition: the features vouch for it.
-      if (first_agrees || motion_confidence >= 1.0)
+      if (first_agrees || motion_confidence >= 0.75)
         next->appearance.blend(image, next->box, o.appearance_update);
     }
   } else if (score < o.appearance_lost_score) {
-    // It looks wrong; lost only when the features do not firmly carry it.
-    next->appearance_misses = motion_confidence >= 1.0 ? 0 : state.appearance_misses + 1;
+    // It looks wrong; lost only when few features carry it (a turning or
+    // tilting target changes its look while many features hold it).
+    next->appearance_misses = motion_confidence >= 0.5 ? 0 : state.appearance_misses + 1;
     next->confidence *= 0.5;
     if (o.appearance_lost_frames > 0 && next->appearance_misses >= o.appearance_lost_frames) {
       next->status = RegionStatus::kLost;

@@ -1,0 +1,114 @@
+// The regions' appearance (region_appearance.h) and what the tracker does
+// with it (region_tracker.h): on a random texture moved by known shifts, with
+// motion data that says nothing about the region (no features, no camera
+// model), so every correction comes from the look alone.
+#include "instant_motion_tracking/core/region/region_tracker.h"
+
+#include <gtest/gtest.h>
+#include <opencv2/imgproc.hpp>
+
+#include <cmath>
+
+namespace imt {
+namespace {
+
+const cv::Size kSize(320, 240);
+
+// A smooth random texture (seeded: the same on every machine's RNG).
+cv::Mat texture() {
+  cv::Mat noise(kSize, CV_8UC1);
+  cv::RNG rng(7);
+  rng.fill(noise, cv::RNG::UNIFORM, 0, 256);
+  cv::Mat t;
+  cv::GaussianBlur(noise, t, cv::Size(0, 0), 1.5);
+  cv::normalize(t, t, 0, 255, cv::NORM_MINMAX);
+  return t;
+}
+
+// `image` moved by (dx, dy) px (integers: exact pixels, no resampling).
+cv::Mat shifted(const cv::Mat& image, int dx, int dy) {
+  cv::Mat out;
+  const cv::Mat m = (cv::Mat_<double>(2, 3) << 1, 0, dx, 0, 1, dy);
+  cv::warpAffine(image, out, m, image.size(), cv::INTER_NEAREST, cv::BORDER_REFLECT);
+  return out;
+}
+
+MotionData emptyMotion(double stamp) {
+  MotionData md;
+  md.stamp = stamp;
+  md.width = kSize.width;
+  md.height = kSize.height;
+  return md;  // no features, camera model invalid
+}
+
+double centreError(const cv::Rect2d& a, const cv::Rect2d& b) {
+  const cv::Point2d d = (a.tl() + a.br()) / 2 - (b.tl() + b.br()) / 2;
+  return std::hypot(d.x, d.y);
+}
+
+TEST(RegionAppearance, FindsAShiftedPatchAndRefusesAFlatOne) {
+  const cv::Mat img = texture();
+  const cv::Rect2d box(100, 80, 60, 40);
+  RegionAppearance a;
+  ASSERT_TRUE(RegionAppearance::create(img, box, 40, &a));
+  const AppearanceMatch m = a.match(shifted(img, 9, -6), box, 0.35);
+  ASSERT_TRUE(m.found);
+  // Template px are 1.5 image px here: sub-pixel peak fitting keeps the
+  // error under one template px.
+  EXPECT_LT(centreError(m.box, box + cv::Point2d(9, -6)), 1.5);
+  EXPECT_GT(m.score, 0.9);
+  EXPECT_LT(m.score_at_box, 0.5);  // the texture decorrelates within a few px
+  RegionAppearance flat;
+  EXPECT_FALSE(RegionAppearance::create(cv::Mat(kSize, CV_8UC1, cv::Scalar(90)), box, 40, &flat));
+  EXPECT_FALSE(RegionAppearance::create(img, cv::Rect2d(-500, 0, 60, 40), 40, &flat));
+}
+
+TEST(RegionAppearance, UnsupportedRegionIsPulledOntoItsLook) {
+  const cv::Mat img = texture();
+  const cv::Rect2d box(100, 80, 60, 40);
+  RegionTracker tracker(RegionTrackerOptions(), kSize);
+  RegionState s = RegionState::start(1, box, 0.0);
+  tracker.initAppearance(&s, img);
+  ASSERT_TRUE(s.appearance.valid());
+  // No motion data: the region would stay put; its look moved by (12, 7).
+  const RegionState next = tracker.step(s, emptyMotion(0.033), Direction::kForward, 0, shifted(img, 12, 7));
+  EXPECT_EQ(next.status, RegionStatus::kTracked);
+  EXPECT_LT(centreError(next.box, box + cv::Point2d(12, 7)), 1.5);  // one template px, as above
+  // Without the image, motion data alone: featureless, where it was.
+  const RegionState blind = tracker.step(s, emptyMotion(0.033), Direction::kForward);
+  EXPECT_EQ(blind.status, RegionStatus::kFeatureless);
+  EXPECT_LT(centreError(blind.box, box), 1e-9);
+}
+
+TEST(RegionAppearance, LostRegionIsReacquiredNearAndFar) {
+  const cv::Mat img = texture();
+  const cv::Rect2d box(100, 80, 60, 40);
+  RegionTracker tracker(RegionTrackerOptions(), kSize);
+  RegionState lost = RegionState::start(1, box, 0.0);
+  tracker.initAppearance(&lost, img);
+  lost.status = RegionStatus::kLost;
+  lost.reason = "occluded";
+  // Near its last place (within one box size): found on the next frame.
+  RegionState near = tracker.step(lost, emptyMotion(0.033), Direction::kForward, 0, shifted(img, 30, 20));
+  EXPECT_EQ(near.status, RegionStatus::kTracked);
+  EXPECT_LT(centreError(near.box, box + cv::Point2d(30, 20)), 1.5);
+  EXPECT_NE(near.reason.find("re-acquired"), std::string::npos) << near.reason;
+  // Far away: the whole-frame search on the first lost frame finds it.
+  RegionState far = tracker.step(lost, emptyMotion(0.033), Direction::kForward, 0, shifted(img, 130, 90));
+  EXPECT_EQ(far.status, RegionStatus::kTracked);
+  EXPECT_LT(centreError(far.box, box + cv::Point2d(130, 90)), 1.5);
+  // Something else in view (another texture): it stays lost.
+  cv::Mat other;
+  cv::flip(img, other, -1);
+  const RegionState still = tracker.step(lost, emptyMotion(0.033), Direction::kForward, 0, other);
+  EXPECT_EQ(still.status, RegionStatus::kLost);
+  EXPECT_EQ(still.lost_frames, 1);
+  // Appearance off: lost is final, as on motion data alone.
+  RegionTrackerOptions off;
+  off.appearance = false;
+  EXPECT_EQ(RegionTracker(off, kSize).step(lost, emptyMotion(0.033), Direction::kForward, 0, shifted(img, 30, 20)).status,
+            RegionStatus::kLost);
+}
+
+}  // namespace
+}  // namespace imt

@@ -1,0 +1,80 @@
+// Region tracking on real video: every sequence with box ground truth in
+// ../shared/data (VOT2015 car1, UAV123 boat1, OTB Human3, POT-210 V25_2 and
+// V24_7; test/box_sequence.h), skipped when the data is absent. The whole
+// pipeline runs as live (a TrackingSession, default options): the region is
+// given at the first frame's ground-truth box and read from each frame's
+// results. Scored by success AUC (OTB definition, frames from the second,
+// a lost region scores IoU 0), as benchmark_region_real prints it.
+#include "instant_motion_tracking/core/tracking_session.h"
+
+#include "../box_sequence.h"
+#include "shared_data.h"
+
+#include <gtest/gtest.h>
+
+#include <cstdio>
+
+namespace imt {
+namespace {
+
+struct RealCase {
+  const char* sequence;
+  double min_auc;
+};
+
+class RegionReal : public ::testing::TestWithParam<RealCase> {};
+
+TEST_P(RegionReal, FirstFrameBoxIsFollowed) {
+  const RealCase& c = GetParam();
+  const std::vector<test::BoxSequence> all = test::BoxSequence::all(test::sharedDataDir());
+  const test::BoxSequence* seq = nullptr;
+  for (const test::BoxSequence& s : all)
+    if (s.name() == c.sequence) seq = &s;
+  if (!seq) GTEST_SKIP() << c.sequence << " not found under " << test::sharedDataDir();
+  TrackingSession session(PipelineOptions(), TrackingSession::Mode::kLive);
+  test::BoxScore score;
+  uint32_t id = 0;
+  cv::Size size;
+  for (int f = 1; f <= seq->frames(); ++f) {
+    const cv::Mat gray = seq->gray(f);
+    ASSERT_FALSE(gray.empty()) << c.sequence << " frame " << f;
+    size = gray.size();
+    session.analyze(gray, seq->stamp(f));
+    session.advance();
+    const std::vector<FrameResult> results = session.takeResults();
+    if (f == 1) {
+      std::string err;
+      ASSERT_TRUE(session.addRegion(1, 0, seq->box(1), &id, &err)) << err;
+      continue;
+    }
+    ASSERT_EQ(results.size(), 1u);
+    ASSERT_EQ(results[0].regions.size(), 1u);
+    const RegionState& s = results[0].regions[0];
+    if (seq->scored(f)) score.add(s.status != RegionStatus::kLost, s.box, seq->box(f), size);
+  }
+  ASSERT_GT(score.frames(), 20);
+  std::printf("%s: success AUC %.3f, mean IoU %.3f, P@20px %.3f over %d frames\n", c.sequence, score.successAuc(),
+              score.meanIou(), score.precision20(), score.frames());
+  EXPECT_GE(score.successAuc(), c.min_auc);
+}
+
+// Measured success AUC (2026-11-24): car1 0.691, boat1 0.743, Human3 0.104,
+// V25_2 0.707, V24_7 0.738 (OpenCV CSRT: 0.740, 0.768, 0.178, 0.682, 0.661;
+// benchmark_region_real). Floors 0.05 under ours (Human3: 0.03, a third of
+// its figure): a change that loses a target on real video shows here.
+// car1 is sensitive to the last bit of the pixels: from libjpeg's own gray
+// decode instead of cvtColor it scores 0.602 (a few shaken frames decide
+// whether the look pulls the box back at once), so its floor is 0.55.
+INSTANTIATE_TEST_SUITE_P(Sequences, RegionReal,
+                         ::testing::Values(RealCase{"vot2015_car1", 0.55}, RealCase{"uav123_10fps_boat1", 0.69},
+                                           RealCase{"otb_human3_first199", 0.07},
+                                           RealCase{"pot210_V25_2", 0.65}, RealCase{"pot210_V24_7", 0.69}),
+                         [](const ::testing::TestParamInfo<RealCase>& info) {
+                           std::string n = info.param.sequence;
+                           for (char& ch : n)
+                             if (!isalnum(static_cast<unsigned char>(ch))) ch = '_';
+                           return n;
+                         });
+
+}  // namespace
+}  // namespace imt

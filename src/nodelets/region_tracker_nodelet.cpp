@@ -37,6 +37,8 @@ void RegionTrackerNodelet::onResult(const FrameResult& r, const std_msgs::Header
     if (s.status == RegionStatus::kLost && !reported_lost_.count(s.id)) {
       reported_lost_.insert(s.id);  // said once per region
       NODELET_INFO("region %u lost at stamp %.6f: %s", s.id, s.stamp, s.reason.c_str());
+    } else if (s.status != RegionStatus::kLost && reported_lost_.erase(s.id)) {
+      NODELET_INFO("region %u tracked again at stamp %.6f: %s", s.id, s.stamp, s.reason.c_str());
     }
   }
   if (regions_pub_.getNumSubscribers() > 0) regions_pub_.publish(toMsg(r.regions, header));

@@ -66,7 +66,7 @@ ImuInput TrackingSession::addImu(const ImuSample& s, std::string* why) {
 void TrackingSession::setKeepImages(bool keep) {
   const PlanarTargetOptions& p = options_.planar_tracking;
   keep_images_ = keep && p.usesImages();
-  const bool wanted = keep_images_ || options_.region_tracking.appearance;
+  const bool wanted = keep_images_ || options_.region_tracking.usesImages();
   regions_.setImageBudget(wanted ? static_cast<size_t>(p.image_memory_mb * 1024 * 1024) : 0);
 }
 
@@ -78,7 +78,7 @@ const MotionData& TrackingSession::analyze(const cv::Mat& gray, double stamp) {
   dropStaleFrames(stamp);
   // The image goes along for the alignment (kept within its budget) and, live,
   // for the overlays of the frame's results.
-  const bool wanted = keep_images_ || mode_ == Mode::kLive || options_.region_tracking.appearance;
+  const bool wanted = keep_images_ || mode_ == Mode::kLive || options_.region_tracking.usesImages();
   pending_.push_back({last_motion_, wanted ? gray : cv::Mat()});
   advance(false);
   return last_motion_;
@@ -108,7 +108,7 @@ void TrackingSession::advance(bool all) {
 void TrackingSession::track(Pending frame) {
   const auto t0 = Clock::now();
   FrameResult r;
-  const bool keep = keep_images_ || options_.region_tracking.appearance;
+  const bool keep = keep_images_ || options_.region_tracking.usesImages();
   r.regions = userRegions(regions_.update(frame.md, keep ? frame.gray.clone() : cv::Mat()));
   r.reset = regions_.lastReset();
   anchors_->update();

@@ -110,5 +110,27 @@ TEST(RegionAppearance, LostRegionIsReacquiredNearAndFar) {
             RegionStatus::kLost);
 }
 
+TEST(RegionOwnFeatures, CarryARegionTheMotionDataHasNoFeaturesIn) {
+  const cv::Mat img = texture();
+  const cv::Rect2d box(100, 80, 40, 32);  // small: tracked at full resolution
+  RegionTrackerOptions o;
+  o.appearance = false;  // the features alone
+  o.region_features = 24;
+  RegionTracker tracker(o, kSize);
+  RegionState s = RegionState::start(1, box, 0.0);
+  tracker.initAppearance(&s, img);
+  ASSERT_GE(s.own_points.size(), 12u);
+  const cv::Mat next_img = shifted(img, 5, 3);
+  const RegionState next = tracker.step(s, emptyMotion(0.033), Direction::kForward, 0, next_img, img);
+  EXPECT_EQ(next.status, RegionStatus::kTracked);
+  // Exact integer shift, sub-pixel LK on a smooth texture: well under a pixel.
+  EXPECT_LT(centreError(next.box, box + cv::Point2d(5, 3)), 0.3);
+  EXPECT_GE(next.inliers.size(), 12u);
+  EXPECT_GE(next.inliers.front(), RegionTracker::kOwnFeatureIdBase);
+  // Without the region's own frame the features cannot be followed: motion data alone.
+  EXPECT_EQ(tracker.step(s, emptyMotion(0.033), Direction::kForward, 0, next_img).status,
+            RegionStatus::kFeatureless);
+}
+
 }  // namespace
 }  // namespace imt

@@ -83,7 +83,8 @@ struct Tracked {
 // Renders preset `name` (seed 1) through a live session and gives the target's
 // true box at the frame `chooseStart` picks from the truth.
 Tracked track(const std::string& name,
-              const std::function<int(const std::vector<FrameTruth>&)>& chooseStart) {
+              const std::function<int(const std::vector<FrameTruth>&)>& chooseStart,
+              const RegionTrackerOptions& region_options = RegionTrackerOptions()) {
   Tracked t;
   std::optional<SceneOptions> opt = SceneOptions::fromPreset(name);
   EXPECT_TRUE(opt) << name;
@@ -102,6 +103,7 @@ Tracked track(const std::string& name,
   t.states.resize(frames);
 
   PipelineOptions po;  // the defaults, with a cache that holds the whole scene
+  po.region_tracking = region_options;
   po.cache_seconds = std::max(po.cache_seconds, opt->duration + 1.0);
   TrackingSession session(po, TrackingSession::Mode::kLive);
   session.setCameraInfo(t.scene->intrinsics());
@@ -155,6 +157,23 @@ TEST(RegionFailureClass, SmallTargetAt720p) {
   // features, turns featureless and rides the camera motion; its look now
   // pulls it back). Floor 0.05 under it. Goal 0.85.
   EXPECT_GE(iou, 0.45);
+}
+
+// The same with each region tracking corners of its own (region_features):
+// full-resolution features inside the small box.
+TEST(RegionFailureClass, SmallTargetAt720pWithOwnFeatures) {
+  RegionTrackerOptions o;
+  o.region_features = 24;
+  const Tracked t = track("region_small", firstWhole, o);
+  ASSERT_FALSE(t.states.empty());
+  int n = 0;
+  const double iou = t.meanIou(0, static_cast<int>(t.truth.size()), &n);
+  std::printf("region_small, own features: mean IoU %.3f over %d frames (goal %.2f)\n", iou, n, kGoal);
+  EXPECT_GT(n, 200);
+  // Measured 0.887 (0.497 without them). Off by default all the same: on
+  // the real sequences they cost car1 0.036 and Human3 0.014 success AUC
+  // (docs/benchmarks.md). Floor 0.05 under.
+  EXPECT_GE(iou, 0.83);
 }
 
 // 2. A target that moves with the camera (a card riding with it, shaking a

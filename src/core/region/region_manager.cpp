@@ -18,7 +18,7 @@ void RegionManager::clear() {
 
 std::vector<RegionState> RegionManager::update(const MotionData& md, const cv::Mat& image) {
   last_reset_.clear();
-  newest_image_ = options_.appearance ? image : cv::Mat();
+  newest_image_ = options_.usesImages() ? image : cv::Mat();
   if (!cache_.push(md, &last_reset_, image)) {
     regions_.clear();
     last_reset_ += "; regions cleared";
@@ -86,7 +86,7 @@ const MotionData& RegionManager::frame(uint64_t seq, MotionData* scratch) const 
 }
 
 cv::Mat RegionManager::imageOf(uint64_t seq) const {
-  if (!options_.appearance) return cv::Mat();
+  if (!options_.usesImages()) return cv::Mat();
   if (seq == cache_.lastSeq() && !newest_image_.empty()) return newest_image_;
   return cache_.image(seq);
 }
@@ -97,13 +97,13 @@ const RegionState& RegionManager::stateAt(Region& r, uint64_t seq) {
   MotionData scratch;
   // Forward from the newest known state.
   for (uint64_t s = st.rbegin()->first; s < seq; ++s) {
-    st[s + 1] = tracker.step(st[s], frame(s + 1, &scratch), Direction::kForward, 0, imageOf(s + 1));
+    st[s + 1] = tracker.step(st[s], frame(s + 1, &scratch), Direction::kForward, 0, imageOf(s + 1), imageOf(s));
   }
   // Backward from the oldest known state.
   for (uint64_t s = st.begin()->first; s > seq; --s) {
     st[s - 1] = tracker
                     .step(st[s].reversed(), frame(s, &scratch), Direction::kBackward, cache_.at(s - 1).stamp,
-                          imageOf(s - 1))
+                          imageOf(s - 1), imageOf(s))
                     .reversed();
   }
   return st.at(seq);

@@ -1,6 +1,7 @@
 #include "instant_motion_tracking/core/region/region_tracker.h"
 
 #include "option_checker.h"
+#include "region_features.h"
 
 #include <Eigen/Dense>
 
@@ -186,6 +187,8 @@ std::string RegionTrackerOptions::validate() const {
   c.check(lost_distance > 0, "lost_distance", "must be > 0", lost_distance);
   c.atLeast("confidence_inliers", confidence_inliers, 1.0);
   c.atLeast("fallback_min_features", fallback_min_features, 1);
+  c.inRange("region_features", region_features, 0, 1000);
+  c.inRange("region_feature_px", region_feature_px, 16, 1024);
   c.inRange("appearance_size", appearance_size, 8, 256);
   c.inRange("appearance_margin", appearance_margin, 0.0, 2.0);
   c.inRange("appearance_accept", appearance_accept, 0.0, 1.0);
@@ -199,26 +202,67 @@ std::string RegionTrackerOptions::validate() const {
   return c.error();
 }
 
+bool RegionTracker::usable(const cv::Mat& image) const {
+  return !image.empty() && image.type() == CV_8UC1 && image.size() == image_size_;
+}
+
 RegionState RegionTracker::step(const RegionState& state, const MotionData& md, Direction dir, double prev_stamp,
-                                const cv::Mat& image) const {
-  RegionState next = stepMotion(state, md, dir, prev_stamp);
-  const bool use_image = options_.appearance && state.appearance.valid() && !image.empty() &&
-                         image.type() == CV_8UC1 && image.size() == image_size_;
-  if (!use_image) return next;
-  if (state.status == RegionStatus::kLost) {
+                                const cv::Mat& image, const cv::Mat& state_image) const {
+  std::vector<OwnFeature> own;
+  const bool with_own = options_.region_features > 0 && usable(image) && usable(state_image);
+  RegionState next = stepMotion(state, md, dir, prev_stamp, with_own ? state_image : cv::Mat(), image, &own);
+  const bool use_look = options_.appearance && state.appearance.valid() && usable(image);
+  if (use_look && state.status == RegionStatus::kLost) {
     reacquire(&next, image);
-    return next;
+  } else if (use_look) {
+    const bool camera_valid = md.camera.model != MotionModel::kInvalid;
+    const bool weak = !camera_valid || next.coast_frames > 0 || next.status == RegionStatus::kFeatureless ||
+                      static_cast<int>(next.inliers.size()) < options_.min_inliers_scale;
+    checkAppearance(state, &next, weak, image);
   }
-  const bool camera_valid = md.camera.model != MotionModel::kInvalid;
-  const bool weak = !camera_valid || next.coast_frames > 0 || next.status == RegionStatus::kFeatureless ||
-                    static_cast<int>(next.inliers.size()) < options_.min_inliers_scale;
-  checkAppearance(state, &next, weak, image);
+  // The region's own features go on with it: those still inside its box,
+  // topped up with new corners there.
+  next.own_points.clear();
+  next.own_ids.clear();
+  if (next.status == RegionStatus::kLost || next.status == RegionStatus::kOutOfView || !usable(image) ||
+      options_.region_features <= 0)
+    return next;
+  const cv::Rect2d keep(next.box.x - 0.1 * next.box.width, next.box.y - 0.1 * next.box.height, 1.2 * next.box.width,
+                        1.2 * next.box.height);
+  for (const OwnFeature& f : own) {
+    // Those that moved otherwise than the region are not its own.
+    if (!keep.contains(cv::Point2d(f.to.x, f.to.y)) || contains(next.outliers, f.id)) continue;
+    next.own_points.push_back(f.to);
+    next.own_ids.push_back(f.id);
+  }
+  // New ones only where the region is seen as itself: not while it coasts
+  // behind an occluder, nor when it does not look like itself.
+  const bool seen = next.status == RegionStatus::kTracked && next.coast_frames == 0 &&
+                    (next.appearance_score < -0.5 || next.appearance_score >= options_.appearance_lost_score);
+  if (seen) addOwnFeatures(&next, image);
   return next;
 }
 
+void RegionTracker::addOwnFeatures(RegionState* state, const cv::Mat& image) const {
+  const int want = options_.region_features - static_cast<int>(state->own_points.size());
+  // Top up only below 3/4 of the target: detecting costs more than tracking.
+  if (want <= options_.region_features / 4) return;
+  // In the inner part of the box: a box drawn round an object holds some
+  // background at its edges, which moves otherwise.
+  const cv::Rect2d& b = state->box;
+  const cv::Rect2d inner(b.x + 0.15 * b.width, b.y + 0.15 * b.height, 0.7 * b.width, 0.7 * b.height);
+  for (const cv::Point2f& p :
+       detectOwnFeatures(image, inner, want, state->own_points, options_.region_feature_px)) {
+    state->own_points.push_back(p);
+    state->own_ids.push_back(kOwnFeatureIdBase + (state->next_own_id++ & (kOwnFeatureIdBase - 1)));
+  }
+}
+
 void RegionTracker::initAppearance(RegionState* state, const cv::Mat& image) const {
-  if (!options_.appearance || image.empty() || image.type() != CV_8UC1) return;
-  if (RegionAppearance::create(image, state->box, options_.appearance_size, &state->appearance))
+  if (!usable(image)) return;
+  if (options_.region_features > 0) addOwnFeatures(state, image);
+  if (options_.appearance &&
+      RegionAppearance::create(image, state->box, options_.appearance_size, &state->appearance))
     state->first_appearance = state->appearance;
 }
 
@@ -279,15 +323,17 @@ void RegionTracker::checkAppearance(const RegionState& state, RegionState* next,
         next->appearance.blend(image, next->box, o.appearance_update);
     }
   } else if (score < o.appearance_lost_score) {
-    // It looks wrong; lost only when few features carry it (a turning or
-    // tilting target changes its look while many features hold it).
-    next->appearance_misses = motion_confidence >= 0.5 ? 0 : state.appearance_misses + 1;
+    // It looks wrong. Lost after appearance_lost_frames of that while few
+    // features carry it, three times as long while many do (a turning or
+    // tilting target changes its look while its features hold it).
+    next->appearance_misses = state.appearance_misses + 1;
     next->confidence *= 0.5;
-    if (o.appearance_lost_frames > 0 && next->appearance_misses >= o.appearance_lost_frames) {
+    const int patience = motion_confidence >= 0.5 ? 3 * o.appearance_lost_frames : o.appearance_lost_frames;
+    if (o.appearance_lost_frames > 0 && next->appearance_misses >= patience) {
       next->status = RegionStatus::kLost;
       next->confidence = 0;
       next->reason = "no longer looks like itself (correlation below " + std::to_string(o.appearance_lost_score) +
-                     " for " + std::to_string(o.appearance_lost_frames) + " frames)";
+                     " for " + std::to_string(patience) + " frames)";
     }
   }
 }
@@ -317,7 +363,8 @@ void RegionTracker::reacquire(RegionState* next, const cv::Mat& image) const {
 }
 
 RegionState RegionTracker::stepMotion(const RegionState& state, const MotionData& md, Direction dir,
-                                      double prev_stamp) const {
+                                      double prev_stamp, const cv::Mat& from_image, const cv::Mat& to_image,
+                                      std::vector<OwnFeature>* own) const {
   const RegionTrackerOptions& o = options_;
   RegionState next = state;
   next.stamp = dir == Direction::kForward ? md.stamp : prev_stamp;
@@ -365,14 +412,10 @@ RegionState RegionTracker::stepMotion(const RegionState& state, const MotionData
     crop_end = std::upper_bound(crop_begin, md.features.end(), search.br().x + margin,
                             [](double x, const FeatureMotion& f) { return x < f.x; });
   }
-  for (auto fit = crop_begin; fit != crop_end; ++fit) {
-    const FeatureMotion& f = *fit;
-    if (f.age == 0) continue;  // just detected: no motion measured yet
-    const Eigen::Vector2d cur(f.x, f.y);
-    const Eigen::Vector2d prev = applyH(H_inv, cur - Eigen::Vector2d(f.dx, f.dy));
-    Vec v{f.id, dir == Direction::kForward ? prev : cur, dir == Direction::kForward ? cur : prev};
-    if (!v.src.allFinite() || !v.dst.allFinite()) continue;
-    if (!search.contains(cv::Point2d(v.src.x(), v.src.y()))) continue;
+  auto addVec = [&](uint32_t id, const Eigen::Vector2d& src, const Eigen::Vector2d& dst) {
+    Vec v{id, src, dst};
+    if (!v.src.allFinite() || !v.dst.allFinite()) return;
+    if (!search.contains(cv::Point2d(v.src.x(), v.src.y()))) return;
     v.in_box = state.box.contains(cv::Point2d(v.src.x(), v.src.y()));
     v.src_cam = applyH(H_dir, v.src);
     // Spatial prior: a Gaussian in box coordinates (both axes).
@@ -389,10 +432,24 @@ RegionState RegionTracker::stepMotion(const RegionState& state, const MotionData
       const double floor = state.coast_frames > 0 ? 0.05 : 0.3;
       v.prior *= floor + (1 - floor) * std::exp(-m);
     }
-    if (contains(state.inliers, f.id)) v.prior *= o.inlier_boost;
-    if (contains(state.outliers, f.id)) v.prior *= o.outlier_cut;
+    if (contains(state.inliers, id)) v.prior *= o.inlier_boost;
+    if (contains(state.outliers, id)) v.prior *= o.outlier_cut;
     v.weight = v.prior;
     vecs.push_back(v);
+  };
+  for (auto fit = crop_begin; fit != crop_end; ++fit) {
+    const FeatureMotion& f = *fit;
+    if (f.age == 0) continue;  // just detected: no motion measured yet
+    const Eigen::Vector2d cur(f.x, f.y);
+    const Eigen::Vector2d prev = applyH(H_inv, cur - Eigen::Vector2d(f.dx, f.dy));
+    if (dir == Direction::kForward) addVec(f.id, prev, cur);
+    else addVec(f.id, cur, prev);
+  }
+  // The region's own features, tracked from its frame into the next.
+  if (!from_image.empty() && !to_image.empty() && !state.own_points.empty()) {
+    *own = trackOwnFeatures(from_image, to_image, state.own_points, state.own_ids, state.box, H_dir, object_step,
+                            o.region_feature_px);
+    for (const OwnFeature& f : *own) addVec(f.id, Eigen::Vector2d(f.from.x, f.from.y), Eigen::Vector2d(f.to.x, f.to.y));
   }
   const int in_box = static_cast<int>(std::count_if(vecs.begin(), vecs.end(), [](const Vec& v) { return v.in_box; }));
   const double frac_inside = fractionInside(state.box, image_size_);

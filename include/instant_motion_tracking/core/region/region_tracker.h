@@ -7,6 +7,13 @@
 // near its centre; the error is the feature's residual against the current
 // fit.
 //
+// Own features (when the frames' images are given): each region also tracks
+// up to `region_features` corners of its own, found inside its box and
+// followed with pyramidal LK at a resolution that fits the box (full
+// resolution inside small boxes), so a small or plain-textured target still
+// has motion vectors where the motion analysis's uniform grid gave it few.
+// They join the same fit, in both time directions.
+//
 // Appearance (when the frames' images are given): each region keeps a small
 // template of its look (region_appearance.h), taken at placement and blended
 // with later looks on confident frames. After the motion step the template
@@ -43,6 +50,8 @@
 
 namespace imt {
 
+struct OwnFeature;
+
 enum class RegionStatus : uint8_t { kTracked, kFeatureless, kOutOfView, kLost };
 // "tracked", "featureless", "out_of_view", "lost" (the CSV spelling).
 const char* regionStatusName(RegionStatus s);
@@ -71,6 +80,9 @@ struct RegionState {
   double appearance_score = -1;    // NCC of the look at this frame's box (-1: not checked)
   int appearance_misses = 0;       // consecutive frames it did not look like itself
   int lost_frames = 0;             // frames since it was lost
+  std::vector<cv::Point2f> own_points;  // its own features at this frame (px), see region_features.h
+  std::vector<uint32_t> own_ids;        // their ids (from kOwnFeatureIdBase)
+  uint32_t next_own_id = 0;
 
   static RegionState start(uint32_t id, const cv::Rect2d& box, double stamp);
   // The state with its direction of travel reversed (velocities negated).
@@ -87,17 +99,27 @@ class RegionTracker {
   // data of the state's own frame, and the result belongs to the frame
   // before it (`prev_stamp`). `image`: the gray frame the result belongs to
   // (CV_8UC1, the motion data's size), or empty for motion data alone.
+  // `state_image`: the gray frame of `state` (with `image`, the region's own
+  // features are tracked between the two).
   RegionState step(const RegionState& state, const MotionData& md, Direction dir, double prev_stamp = 0,
-                   const cv::Mat& image = cv::Mat()) const;
-  // Takes the region's look from `image`, the frame of its box (no-op when
-  // appearance is off, the image is empty or the box is flat).
+                   const cv::Mat& image = cv::Mat(), const cv::Mat& state_image = cv::Mat()) const;
+  // Takes the region's look and its own features from `image`, the frame of
+  // its box (no-op without an image; no look when appearance is off or the
+  // box is flat).
   void initAppearance(RegionState* state, const cv::Mat& image) const;
+  // Ids of the regions' own features start here (the motion analysis's are below).
+  static constexpr uint32_t kOwnFeatureIdBase = 0x80000000u;
 
   const RegionTrackerOptions& options() const { return options_; }
   cv::Size imageSize() const { return image_size_; }
 
  private:
-  RegionState stepMotion(const RegionState& state, const MotionData& md, Direction dir, double prev_stamp) const;
+  bool usable(const cv::Mat& image) const;
+  // The motion step; with both images, the region's own features are tracked
+  // too (`own`: those that were) and join the fit.
+  RegionState stepMotion(const RegionState& state, const MotionData& md, Direction dir, double prev_stamp,
+                         const cv::Mat& from_image, const cv::Mat& to_image, std::vector<OwnFeature>* own) const;
+  void addOwnFeatures(RegionState* state, const cv::Mat& image) const;
   // The appearance check after the motion step (`motion_weak`: the step had
   // no support of its own), and the search for a lost region.
   void checkAppearance(const RegionState& state, RegionState* next, bool motion_weak, const cv::Mat& image) const;

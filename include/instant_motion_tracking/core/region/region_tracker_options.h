@@ -34,6 +34,8 @@ struct RegionTrackerOptions {
       3.0;  // out of view farther than this many box sizes outside the image: lost
   double confidence_inliers = 20;
   int fallback_min_features = 10;
+  int region_features = 0;
+  int region_feature_px = 96;
   bool appearance = true;
   int appearance_size = 40;
   double appearance_margin = 0.35;
@@ -79,6 +81,10 @@ struct RegionTrackerOptions {
     v("fallback_min_features", fallback_min_features,
       "frames without a camera model move by the IMU rotation (anchors); with this many features, "
       "plus their median residual (the translation)");
+    v("region_features", region_features,
+      "corners each region tracks of its own inside its box, besides the motion analysis's (0 = none)");
+    v("region_feature_px", region_feature_px,
+      "px; its own features are tracked at full resolution in boxes up to this size, larger boxes downscaled to it");
     v("appearance", appearance,
       "check each region's look (a template) against the frames: corrects drift, re-acquires lost regions");
     v("appearance_size", appearance_size, "px; the template's longer side (smaller boxes keep their own pixels)");
@@ -102,6 +108,8 @@ struct RegionTrackerOptions {
       "frames between whole-frame searches for a lost region (around its last place: every frame)");
   }
   std::string validate() const;
+  // The tracker reads the frames' images (own features or appearance).
+  bool usesImages() const { return region_features > 0 || appearance; }
 };
 
 }  // namespace imt

@@ -1,0 +1,38 @@
+// A region's own features (private to the region tracker): corners found
+// inside its box and tracked between two frames with OpenCV's pyramidal
+// Lucas-Kanade on crops around the box, at a resolution that fits the box
+// (full resolution for small boxes, downscaled so the box's longer side is
+// about `scale_px` px for large ones), checked forward-backward. They make
+// sure a region has motion vectors of its own however small it is and
+// whatever the motion analysis's uniform grid gave it, and they work the same
+// in both time directions, on any cached frame.
+#pragma once
+
+#include <Eigen/Core>
+#include <opencv2/core.hpp>
+
+#include <cstdint>
+#include <vector>
+
+namespace imt {
+
+struct OwnFeature {
+  uint32_t id = 0;
+  cv::Point2f from, to;  // full-resolution px in the two frames
+};
+
+// Tracks `points` (full-resolution px in `from`) into `to` (both CV_8UC1, the
+// same size). The guess for each is `H` (from -> to pixels) applied to it,
+// shifted by `shift`. Only the survivors of the forward-backward check are
+// returned.
+std::vector<OwnFeature> trackOwnFeatures(const cv::Mat& from, const cv::Mat& to,
+                                         const std::vector<cv::Point2f>& points,
+                                         const std::vector<uint32_t>& ids, const cv::Rect2d& box,
+                                         const Eigen::Matrix3d& H, const Eigen::Vector2d& shift, int scale_px);
+
+// Up to `count` new corners inside `box` of `image`, at least a few crop px
+// from each other and from `existing`; full-resolution px.
+std::vector<cv::Point2f> detectOwnFeatures(const cv::Mat& image, const cv::Rect2d& box, int count,
+                                           const std::vector<cv::Point2f>& existing, int scale_px);
+
+}  // namespace imt

@@ -322,10 +322,31 @@ class TrackBagRun {
     stage_seconds_["track_items"] = clock.lap();
   }
 
+  // A region that is lost, or tracked again after it was (frames in order),
+  // is said in the notes with the tracker's reason, as the live graph logs it.
+  void noteLostOrFound(const imt::RegionState& s) {
+    const bool lost = s.status == imt::RegionStatus::kLost;
+    auto [it, first] = region_lost_.emplace(s.id, lost);
+    if (first ? !lost : it->second == lost) return;
+    it->second = lost;
+    // A region that flickers between the two says so a bounded number of times.
+    constexpr int kMaxNotes = 50;
+    if (++region_notes_ > kMaxNotes) {
+      if (region_notes_ == kMaxNotes + 1) notes_.note("more regions lost or tracked again: not listed");
+      return;
+    }
+    char stamp[32];
+    std::snprintf(stamp, sizeof(stamp), "%.6f", s.stamp);
+    notes_.note("region " + std::to_string(s.id) + (lost ? " lost" : " tracked again") + " at stamp " + stamp + ": " +
+                s.reason);
+  }
+
   void writeRows(const FrameOut& f, const imt::FrameResult& r) {
     std::string err;
-    for (const imt::RegionState& s : r.regions)
+    for (const imt::RegionState& s : r.regions) {
       if (!regions_csv_.write(imt::regionRow(s), &err)) fail(err);
+      noteLostOrFound(s);
+    }
     for (const imt::PlanarTargetState& s : r.targets)
       if (!targets_csv_.write(imt::planarTargetRow(s), &err)) fail(err);
     for (const imt::AnchorState& a : r.anchors)
@@ -441,6 +462,8 @@ class TrackBagRun {
 
   const Args& args_;
   Stopwatch total_clock_;
+  std::map<uint32_t, bool> region_lost_;  // region id -> lost at the last written frame
+  int region_notes_ = 0;
   Notes notes_;
   // Inputs.
   std::string config_path_;

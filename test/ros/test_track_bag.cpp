@@ -295,6 +295,45 @@ TEST_F(TrackBag, AnchorsWithoutImuAreTranslationOnly) {
   EXPECT_NEAR(std::sqrt(tx * tx + ty * ty + tz * tz), 2.0, 1e-6);
 }
 
+TEST_F(TrackBag, RegionLostAndFoundAgainIsNotedWithItsReason) {
+  // A still view of texture A, then 70 frames of an unrelated still view B,
+  // then A again: the region given on A stops looking like itself, is lost,
+  // and is found again when A is back.
+  BagSpec spec;
+  spec.frames = 110;
+  const cv::Mat a = frameImage(0, spec.width, spec.height);
+  cv::Mat b;
+  cv::flip(frameImage(300, spec.width, spec.height), b, -1);
+  spec.image = [&](int i) { return i < 20 || i >= 90 ? a : b; };
+  const std::string init = writeText("init_lost.yaml", "regions:\n  - {id: 1, stamp: 1000.0, box: [40, 30, 50, 40]}\n");
+  const std::string out = path("out_lost");
+  const ToolRun r = run("--bag " + quote(makeBag("lost.bag", spec)) + " --init " + quote(init) + " --out-dir " +
+                        quote(out));
+  ASSERT_EQ(r.status, 0) << r.err;
+  const auto rows = readCsv(out + "/regions.csv");
+  ASSERT_EQ(rows.size(), 1u + spec.frames);
+  int lost_at = -1, found_at = -1;
+  for (int i = 1; i <= spec.frames; ++i) {
+    if (rows[i][6] == "lost" && lost_at < 0) lost_at = i - 1;
+    if (rows[i][6] == "tracked" && lost_at >= 0 && found_at < 0) found_at = i - 1;
+  }
+  // Lost while B is in view (after appearance_lost_frames or three times
+  // that), found on A's first frame back (its look matches exactly there).
+  EXPECT_GT(lost_at, 20);
+  EXPECT_LT(lost_at, 90);
+  EXPECT_EQ(found_at, 90);
+  EXPECT_NEAR(std::stod(rows[1 + found_at][2]), 40.0, 1.0);
+  EXPECT_NEAR(std::stod(rows[1 + found_at][3]), 30.0, 1.0);
+  bool said_lost = false, said_found = false;
+  for (const std::string& l : r.errLines()) {
+    said_lost = said_lost || l.find("note: region 1 lost at stamp") != std::string::npos;
+    said_found = said_found || (l.find("note: region 1 tracked again at stamp") != std::string::npos &&
+                                l.find("re-acquired by its appearance") != std::string::npos);
+  }
+  EXPECT_TRUE(said_lost) << r.err;
+  EXPECT_TRUE(said_found) << r.err;
+}
+
 TEST_F(TrackBag, DecoderWarningsBecomeOneCountedWarning) {
   // libpng decodes a PNG whose ancillary tEXt chunk has a bad CRC and prints
   // "libpng warning: tEXt: CRC error" on stderr; the tool captures that and

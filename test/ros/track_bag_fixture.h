@@ -55,6 +55,7 @@ struct BagSpec {
   int imu_nan = 0;                       // this many IMU samples carry NaN
   bool tf_static = true;
   std::function<void(rosbag::Bag&)> extra;  // more messages (second topics, ...)
+  std::function<cv::Mat(int)> image;     // frame i's gray image (default frameImage)
   int corrupt_frame = -1;                // this frame's compressed data is garbage
   int crc_warning_frame = -1;            // this frame's PNG has a tEXt chunk with a bad CRC
   int bad_frame = -1;                    // this frame's encoding is `bad_encoding`
@@ -147,7 +148,7 @@ void writeBag(const std::string& path, const BagSpec& s) {
       info.K = {100, 0, (info.width - 1) / 2.0, 0, 100, (info.height - 1) / 2.0, 0, 0, 1};
       bag.write("/cam/camera_info", bag_time, info);
     }
-    const cv::Mat gray = frameImage(i, s.width, s.height);
+    const cv::Mat gray = s.image ? s.image(i) : frameImage(i, s.width, s.height);
     if (!s.compressed.empty()) {
       sensor_msgs::CompressedImage c;
       c.header = h;

@@ -16,7 +16,7 @@ namespace {
 // One motion vector in the tracking direction: src in the state's frame, dst
 // in the frame being tracked into.
 struct Vec {
-  uint32_t id;
+  uint32_t id = 0;
   Eigen::Vector2d src, dst;
   Eigen::Vector2d src_cam;  // src moved by the camera motion: the fit explains dst - src_cam
   double prior = 1, weight = 1, error = 0;
@@ -413,7 +413,10 @@ RegionState RegionTracker::stepMotion(const RegionState& state, const MotionData
                             [](double x, const FeatureMotion& f) { return x < f.x; });
   }
   auto addVec = [&](uint32_t id, const Eigen::Vector2d& src, const Eigen::Vector2d& dst) {
-    Vec v{id, src, dst};
+    Vec v;
+    v.id = id;
+    v.src = src;
+    v.dst = dst;
     if (!v.src.allFinite() || !v.dst.allFinite()) return;
     if (!search.contains(cv::Point2d(v.src.x(), v.src.y()))) return;
     v.in_box = state.box.contains(cv::Point2d(v.src.x(), v.src.y()));

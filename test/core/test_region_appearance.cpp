@@ -46,6 +46,14 @@ double centreError(const cv::Rect2d& a, const cv::Rect2d& b) {
   return std::hypot(d.x, d.y);
 }
 
+// A region placed on `box` of `image` by `tracker` (its look and, when on,
+// its own features taken there).
+RegionState placed(const RegionTracker& tracker, const cv::Mat& image, const cv::Rect2d& box) {
+  RegionState s = RegionState::start(1, box, 0.0);
+  tracker.initAppearance(&s, image);
+  return s;
+}
+
 TEST(RegionAppearance, FindsAShiftedPatchAndRefusesAFlatOne) {
   const cv::Mat img = texture();
   const cv::Rect2d box(100, 80, 60, 40);
@@ -67,8 +75,7 @@ TEST(RegionAppearance, UnsupportedRegionIsPulledOntoItsLook) {
   const cv::Mat img = texture();
   const cv::Rect2d box(100, 80, 60, 40);
   RegionTracker tracker(RegionTrackerOptions(), kSize);
-  RegionState s = RegionState::start(1, box, 0.0);
-  tracker.initAppearance(&s, img);
+  const RegionState s = placed(tracker, img, box);
   ASSERT_TRUE(s.appearance.valid());
   // No motion data: the region would stay put; its look moved by (12, 7).
   const RegionState next = tracker.step(s, emptyMotion(0.033), Direction::kForward, 0, shifted(img, 12, 7));
@@ -84,8 +91,7 @@ TEST(RegionAppearance, LostRegionIsReacquiredNearAndFar) {
   const cv::Mat img = texture();
   const cv::Rect2d box(100, 80, 60, 40);
   RegionTracker tracker(RegionTrackerOptions(), kSize);
-  RegionState lost = RegionState::start(1, box, 0.0);
-  tracker.initAppearance(&lost, img);
+  RegionState lost = placed(tracker, img, box);
   lost.status = RegionStatus::kLost;
   lost.reason = "occluded";
   // Near its last place (within one box size): found on the next frame.
@@ -117,8 +123,7 @@ TEST(RegionOwnFeatures, CarryARegionTheMotionDataHasNoFeaturesIn) {
   o.appearance = false;  // the features alone
   o.region_features = 24;
   RegionTracker tracker(o, kSize);
-  RegionState s = RegionState::start(1, box, 0.0);
-  tracker.initAppearance(&s, img);
+  const RegionState s = placed(tracker, img, box);
   ASSERT_GE(s.own_points.size(), 12u);
   const cv::Mat next_img = shifted(img, 5, 3);
   const RegionState next = tracker.step(s, emptyMotion(0.033), Direction::kForward, 0, next_img, img);

@@ -30,7 +30,7 @@ TrackingSession::TrackingSession(const PipelineOptions& options, Mode mode)
                                                options.default_hfov_deg, &regions_)) {
   Eigen::Quaterniond q;
   if (options.anchors.rotationCamImu(&q) && anchors_->rotationFromOptions()) q_cam_imu_ = q;
-  setKeepImages(false);  // the regions' appearance checks may want the frames all the same
+  regions_.setImageBudget(imageBudget());
 }
 
 void TrackingSession::setCameraInfo(const CameraModel& info) {
@@ -63,11 +63,17 @@ ImuInput TrackingSession::addImu(const ImuSample& s, std::string* why) {
   return r;
 }
 
+bool TrackingSession::trackersUseImages() const {
+  return keep_images_ || options_.region_tracking.usesImages();
+}
+
+size_t TrackingSession::imageBudget() const {
+  return trackersUseImages() ? static_cast<size_t>(options_.planar_tracking.image_memory_mb * 1024 * 1024) : 0;
+}
+
 void TrackingSession::setKeepImages(bool keep) {
-  const PlanarTargetOptions& p = options_.planar_tracking;
-  keep_images_ = keep && p.usesImages();
-  const bool wanted = keep_images_ || options_.region_tracking.usesImages();
-  regions_.setImageBudget(wanted ? static_cast<size_t>(p.image_memory_mb * 1024 * 1024) : 0);
+  keep_images_ = keep && options_.planar_tracking.usesImages();
+  regions_.setImageBudget(imageBudget());
 }
 
 const MotionData& TrackingSession::analyze(const cv::Mat& gray, double stamp) {
@@ -76,10 +82,9 @@ const MotionData& TrackingSession::analyze(const cv::Mat& gray, double stamp) {
   addTime("motion_analysis", secondsSince(t0));
   ++times_.frames;
   dropStaleFrames(stamp);
-  // The image goes along for the alignment (kept within its budget) and, live,
-  // for the overlays of the frame's results.
-  const bool wanted = keep_images_ || mode_ == Mode::kLive || options_.region_tracking.usesImages();
-  pending_.push_back({last_motion_, wanted ? gray : cv::Mat()});
+  // The image goes along for the trackers that read it (kept within its
+  // budget) and, live, for the overlays of the frame's results.
+  pending_.push_back({last_motion_, trackersUseImages() || mode_ == Mode::kLive ? gray : cv::Mat()});
   advance(false);
   return last_motion_;
 }
@@ -108,8 +113,7 @@ void TrackingSession::advance(bool all) {
 void TrackingSession::track(Pending frame) {
   const auto t0 = Clock::now();
   FrameResult r;
-  const bool keep = keep_images_ || options_.region_tracking.usesImages();
-  r.regions = userRegions(regions_.update(frame.md, keep ? frame.gray.clone() : cv::Mat()));
+  r.regions = userRegions(regions_.update(frame.md, trackersUseImages() ? frame.gray.clone() : cv::Mat()));
   r.reset = regions_.lastReset();
   anchors_->update();
   const auto t1 = Clock::now();

@@ -155,6 +155,11 @@ class TrackingSession {
   // Makes sure the frame nearest `stamp` has gone through the trackers
   // (items given at a frame still waiting for the IMU).
   void flushFor(double stamp);
+  // The trackers read the frames' images: the planar alignment (while kept)
+  // or the regions (their own features, their look). Then the cache keeps
+  // them within planar_tracking.image_memory_mb (imageBudget(), else 0).
+  bool trackersUseImages() const;
+  size_t imageBudget() const;
   void addTime(const char* stage, double seconds) { times_.seconds[stage] += seconds; }
 
   PipelineOptions options_;

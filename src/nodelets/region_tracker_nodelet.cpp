@@ -30,16 +30,12 @@ void RegionTrackerNodelet::onResult(const FrameResult& r, const std_msgs::Header
                                     const ros::WallTime& received) {
   frame_id_ = header.frame_id;
   if (!r.reset.empty()) {
-    reported_lost_.clear();  // the regions are gone
+    losses_.clear();  // the regions are gone
     if (health_.noteReset(r.reset)) NODELET_WARN("%s", r.reset.c_str());
   }
   for (const RegionState& s : r.regions) {
-    if (s.status == RegionStatus::kLost && !reported_lost_.count(s.id)) {
-      reported_lost_.insert(s.id);  // said once per region
-      NODELET_INFO("region %u lost at stamp %.6f: %s", s.id, s.stamp, s.reason.c_str());
-    } else if (s.status != RegionStatus::kLost && reported_lost_.erase(s.id)) {
-      NODELET_INFO("region %u tracked again at stamp %.6f: %s", s.id, s.stamp, s.reason.c_str());
-    }
+    const std::string change = losses_.update(s);  // said once per change
+    if (!change.empty()) NODELET_INFO("%s", change.c_str());
   }
   if (regions_pub_.getNumSubscribers() > 0) regions_pub_.publish(toMsg(r.regions, header));
   if (markers_pub_.getNumSubscribers() > 0) markers_pub_.publish(regionMarkers(r.regions, header, r.camera));
@@ -68,7 +64,7 @@ bool RegionTrackerNodelet::removeCb(instant_motion_tracking::RemoveRegion::Reque
                                     instant_motion_tracking::RemoveRegion::Response& res) {
   std::string error;
   res.success = session([&](TrackingSession& s) {
-    reported_lost_.erase(req.id);
+    losses_.forget(req.id);
     return s.removeRegion(req.id, &error);
   });
   res.message = res.success ? "removed region " + std::to_string(req.id) : error;

@@ -325,20 +325,12 @@ class TrackBagRun {
   // A region that is lost, or tracked again after it was (frames in order),
   // is said in the notes with the tracker's reason, as the live graph logs it.
   void noteLostOrFound(const imt::RegionState& s) {
-    const bool lost = s.status == imt::RegionStatus::kLost;
-    auto [it, first] = region_lost_.emplace(s.id, lost);
-    if (first ? !lost : it->second == lost) return;
-    it->second = lost;
+    const std::string change = region_losses_.update(s);
+    if (change.empty()) return;
     // A region that flickers between the two says so a bounded number of times.
     constexpr int kMaxNotes = 50;
-    if (++region_notes_ > kMaxNotes) {
-      if (region_notes_ == kMaxNotes + 1) notes_.note("more regions lost or tracked again: not listed");
-      return;
-    }
-    char stamp[32];
-    std::snprintf(stamp, sizeof(stamp), "%.6f", s.stamp);
-    notes_.note("region " + std::to_string(s.id) + (lost ? " lost" : " tracked again") + " at stamp " + stamp + ": " +
-                s.reason);
+    if (++region_notes_ <= kMaxNotes) notes_.note(change);
+    else if (region_notes_ == kMaxNotes + 1) notes_.note("more regions lost or tracked again: not listed");
   }
 
   void writeRows(const FrameOut& f, const imt::FrameResult& r) {
@@ -462,7 +454,7 @@ class TrackBagRun {
 
   const Args& args_;
   Stopwatch total_clock_;
-  std::map<uint32_t, bool> region_lost_;  // region id -> lost at the last written frame
+  imt::RegionLossLog region_losses_;
   int region_notes_ = 0;
   Notes notes_;
   // Inputs.

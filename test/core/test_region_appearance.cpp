@@ -50,7 +50,7 @@ double centreError(const cv::Rect2d& a, const cv::Rect2d& b) {
 // its own features taken there).
 RegionState placed(const RegionTracker& tracker, const cv::Mat& image, const cv::Rect2d& box) {
   RegionState s = RegionState::start(1, box, 0.0);
-  tracker.initAppearance(&s, image);
+  tracker.initFromImage(&s, image);
   return s;
 }
 

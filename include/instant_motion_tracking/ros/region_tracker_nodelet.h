@@ -27,7 +27,6 @@
 #include "instant_motion_tracking/SeekRegions.h"
 #include "instant_motion_tracking/ros/session_nodelet.h"
 
-#include <set>
 
 namespace imt {
 
@@ -46,7 +45,7 @@ class RegionTrackerNodelet : public SessionNodelet {
 
   ros::Publisher regions_pub_, markers_pub_;
   ros::ServiceServer add_srv_, remove_srv_, seek_srv_;
-  std::set<uint32_t> reported_lost_;  // regions whose loss was logged (under the hub's lock)
+  RegionLossLog losses_;  // regions whose loss was logged (under the hub's lock)
   std::string frame_id_;              // of the latest frame (under the hub's lock)
 };
 

@@ -45,6 +45,7 @@
 #include <Eigen/Core>
 #include <opencv2/core.hpp>
 
+#include <set>
 #include <string>
 #include <vector>
 
@@ -89,6 +90,21 @@ struct RegionState {
   RegionState reversed() const;
 };
 
+// Says when a region is lost and when it is tracked again, once per change,
+// from its states in frame order (the live nodelet logs it, track_bag notes
+// it). Not thread-safe.
+class RegionLossLog {
+ public:
+  // "region <id> lost at stamp <s>: <reason>", "region <id> tracked again
+  // at stamp <s>: <reason>", or "" when `s` changes nothing.
+  std::string update(const RegionState& s);
+  void forget(uint32_t id) { lost_.erase(id); }  // a removed region
+  void clear() { lost_.clear(); }
+
+ private:
+  std::set<uint32_t> lost_;
+};
+
 class RegionTracker {
  public:
   RegionTracker(const RegionTrackerOptions& options, cv::Size image_size)
@@ -106,7 +122,7 @@ class RegionTracker {
   // Takes the region's look and its own features from `image`, the frame of
   // its box (no-op without an image; no look when appearance is off or the
   // box is flat).
-  void initAppearance(RegionState* state, const cv::Mat& image) const;
+  void initFromImage(RegionState* state, const cv::Mat& image) const;
   // Ids of the regions' own features start here (the motion analysis's are below).
   static constexpr uint32_t kOwnFeatureIdBase = 0x80000000u;
 

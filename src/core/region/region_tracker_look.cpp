@@ -1,0 +1,118 @@
+// The parts of the region tracker that read the frames' pixels: the region's
+// own features topped up, its look taken and checked after each motion step
+// (region_tracker.h); and the log of regions lost and tracked again.
+#include "instant_motion_tracking/core/region/region_tracker.h"
+
+#include "region_features.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+
+namespace imt {
+
+std::string RegionLossLog::update(const RegionState& s) {
+  const bool lost = s.status == RegionStatus::kLost;
+  if (lost ? !lost_.insert(s.id).second : !lost_.erase(s.id)) return "";
+  char stamp[32];
+  std::snprintf(stamp, sizeof(stamp), "%.6f", s.stamp);
+  return "region " + std::to_string(s.id) + (lost ? " lost" : " tracked again") + " at stamp " + stamp + ": " +
+         s.reason;
+}
+
+void RegionTracker::addOwnFeatures(RegionState* state, const cv::Mat& image) const {
+  const int want = options_.region_features - static_cast<int>(state->own_points.size());
+  // Top up only below 3/4 of the target: detecting costs more than tracking.
+  if (want <= options_.region_features / 4) return;
+  // In the inner part of the box: a box drawn round an object holds some
+  // background at its edges, which moves otherwise.
+  const cv::Rect2d& b = state->box;
+  const cv::Rect2d inner(b.x + 0.15 * b.width, b.y + 0.15 * b.height, 0.7 * b.width, 0.7 * b.height);
+  for (const cv::Point2f& p :
+       detectOwnFeatures(image, inner, want, state->own_points, options_.region_feature_px)) {
+    state->own_points.push_back(p);
+    state->own_ids.push_back(kOwnFeatureIdBase + (state->next_own_id++ & (kOwnFeatureIdBase - 1)));
+  }
+}
+
+void RegionTracker::initFromImage(RegionState* state, const cv::Mat& image) const {
+  if (!usable(image)) return;
+  if (options_.region_features > 0) addOwnFeatures(state, image);
+  if (options_.appearance &&
+      RegionAppearance::create(image, state->box, options_.appearance_size, &state->appearance))
+    state->first_appearance = state->appearance;
+}
+
+void RegionTracker::checkAppearance(const RegionState& state, RegionState* next, bool motion_weak,
+                                    const cv::Mat& image) const {
+  const RegionTrackerOptions& o = options_;
+  if (next->status == RegionStatus::kLost || next->status == RegionStatus::kOutOfView) {
+    next->appearance_score = -1;
+    return;
+  }
+  const double margin = motion_weak ? 2 * o.appearance_margin : o.appearance_margin;
+  const AppearanceMatch m = state.appearance.match(image, next->box, margin);
+  if (!m.found) {
+    next->appearance_score = -1;
+    return;
+  }
+  double score = m.score_at_box;
+  // How firmly the features carry the region (1: confidence_inliers or more).
+  const double motion_confidence = motion_weak ? 0.0 : std::min(1.0, next->inliers.size() / o.confidence_inliers);
+  // A clearly better look nearby: move toward it (all the way when the motion
+  // data had nothing to say about the region itself).
+  if (m.score >= o.appearance_accept && m.score > m.score_at_box + o.appearance_gap) {
+    // The motion fit is precise where many features carry it: the look
+    // only nudges such a region, and moves one the features do not hold.
+    const double k = motion_weak ? 1.0 : o.appearance_gain * (1 - motion_confidence);
+    const cv::Point2d c0 = (next->box.tl() + next->box.br()) / 2, c1 = (m.box.tl() + m.box.br()) / 2;
+    const cv::Point2d c = c0 + k * (c1 - c0);
+    // Sizes from a 5% scale search are coarse, and a perspective view often
+    // matches a smaller box best: they count only when the features cannot
+    // measure the scale, and then at half speed.
+    const double ks = motion_weak ? 0.5 : 0.0;
+    const double w = next->box.width + ks * (m.box.width - next->box.width);
+    const double h = next->box.height + ks * (m.box.height - next->box.height);
+    next->box = cv::Rect2d(c.x - w / 2, c.y - h / 2, w, h);
+    score = m.score;
+    if (motion_weak) {
+      // Seen where it is: no longer coasting blind, nor merely carried by the camera.
+      next->coast_frames = 0;
+      next->status = RegionStatus::kTracked;
+    }
+  }
+  next->appearance_score = score;
+  if (score >= o.appearance_accept) {
+    next->appearance_misses = 0;
+    next->confidence = std::max(next->confidence, std::min(1.0, (score - o.appearance_lost_score) /
+                                                                    (1.0 - o.appearance_lost_score)));
+    // Confident frames teach the template the region's current look, when
+    // the look at placement agrees on where the region is (else the
+    // template would learn whatever drifted into the box).
+    if (!motion_weak || score >= o.reacquire_score) {
+      const AppearanceMatch first = state.first_appearance.match(image, next->box, 0.1);
+      const cv::Point2d d = (first.box.tl() + first.box.br()) / 2 - (next->box.tl() + next->box.br()) / 2;
+      const double tolerance = 0.015 * std::max(next->box.width, next->box.height);
+      const bool first_agrees = first.found && first.score >= o.appearance_lost_score && std::hypot(d.x, d.y) <= tolerance;
+      // A region the features carry firmly may change its look (turn, tilt)
+      // beyond the first look's recognition: the features vouch for it.
+      if (first_agrees || motion_confidence >= 0.75)
+        next->appearance.blend(image, next->box, o.appearance_update);
+    }
+  } else if (score < o.appearance_lost_score) {
+    // It looks wrong. Lost after appearance_lost_frames of that while few
+    // features carry it, three times as long while many do (a turning or
+    // tilting target changes its look while its features hold it).
+    next->appearance_misses = state.appearance_misses + 1;
+    next->confidence *= 0.5;
+    const int patience = motion_confidence >= 0.5 ? 3 * o.appearance_lost_frames : o.appearance_lost_frames;
+    if (o.appearance_lost_frames > 0 && next->appearance_misses >= patience) {
+      next->status = RegionStatus::kLost;
+      next->confidence = 0;
+      next->reason = "no longer looks like itself (correlation below " + std::to_string(o.appearance_lost_score) +
+                     " for " + std::to_string(patience) + " frames)";
+    }
+  }
+}
+
+}  // namespace imt

@@ -11,6 +11,7 @@
 //
 //   make -C _build benchmarks && taskset -c 0 _build/benchmark/benchmark_region_real [--ours-only] [--no-appearance] [--set option=value] [--trace] [sequence...]
 #include "instant_motion_tracking/core/tracking_session.h"
+#include "instant_motion_tracking/io/config.h"
 
 #include "../test/box_sequence.h"
 
@@ -26,7 +27,6 @@
 #include <functional>
 #include <map>
 #include <set>
-#include <type_traits>
 
 namespace {
 
@@ -54,38 +54,13 @@ Row run(const imt::test::BoxSequence& seq, const std::vector<cv::Mat>& frames,
 
 // --trace: one line per frame of this package's run on stderr.
 bool g_trace = false;
-// --no-appearance: regions on motion data alone (the paper's tracker).
-bool g_appearance = true;
-// --set name=value: a region_tracking option (for experiments).
-std::map<std::string, double> g_set;
-
-struct SetOption {
-  const std::string& name;
-  double value;
-  bool* found;
-  template <class T>
-  void operator()(const char* n, T& field, const char*) {
-    if (name != n) return;
-    if constexpr (std::is_arithmetic_v<T>) {
-      field = static_cast<T>(value);
-      *found = true;
-    }
-  }
-};
+// The options of this package's run: the defaults, with --no-appearance
+// (regions on motion data alone, the paper's tracker) and --set
+// name=value (a region_tracking option, read as config YAML is).
+imt::Config g_config;
 
 Row runOurs(const imt::test::BoxSequence& seq, const std::vector<cv::Mat>& gray) {
-  imt::PipelineOptions options;
-  options.region_tracking.appearance = g_appearance;
-  for (const auto& [name, value] : g_set) {
-    bool found = false;
-    SetOption set{name, value, &found};
-    options.region_tracking.visit(set);
-    if (!found) {
-      std::fprintf(stderr, "--set: no region_tracking option %s\n", name.c_str());
-      std::exit(2);
-    }
-  }
-  imt::TrackingSession session(options, imt::TrackingSession::Mode::kLive);
+  imt::TrackingSession session(g_config.pipeline, imt::TrackingSession::Mode::kLive);
   uint32_t id = 0;
   return run(seq, gray, [&](int f, cv::Rect2d* box) {
     session.analyze(gray[f - 1], seq.stamp(f));
@@ -135,11 +110,15 @@ int main(int argc, char** argv) {
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     if (a == "--ours-only") ours_only = true;
-    else if (a == "--no-appearance") g_appearance = false;
+    else if (a == "--no-appearance") g_config.pipeline.region_tracking.appearance = false;
     else if (a == "--set" && i + 1 < argc) {
-      const std::string kv = argv[++i];
+      std::string kv = argv[++i], err;
       const size_t eq = kv.find('=');
-      g_set[kv.substr(0, eq)] = std::atof(kv.substr(eq + 1).c_str());
+      if (eq != std::string::npos) kv.replace(eq, 1, ": ");
+      if (!imt::loadConfigYaml("region_tracking: {" + kv + "}", std::string("--set ") + argv[i], &g_config, &err)) {
+        std::fprintf(stderr, "%s\n", err.c_str());
+        return 2;
+      }
     }
     else if (a == "--trace") g_trace = ours_only = true;
     else only.insert(a);

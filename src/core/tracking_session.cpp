@@ -28,8 +28,6 @@ TrackingSession::TrackingSession(const PipelineOptions& options, Mode mode)
       targets_(options.planar_tracking, &regions_.cache()),
       anchors_(std::make_unique<AnchorManager>(options.anchors, imuOptionsFor(options.imu, mode),
                                                options.default_hfov_deg, &regions_)) {
-  Eigen::Quaterniond q;
-  if (options.anchors.rotationCamImu(&q) && anchors_->rotationFromOptions()) q_cam_imu_ = q;
   regions_.setImageBudget(imageBudget());
 }
 
@@ -50,9 +48,7 @@ const char* TrackingSession::cameraSource() const {
 }
 
 bool TrackingSession::setRotationCamImu(const Eigen::Quaterniond& q_cam_imu) {
-  if (!anchors_->setRotationCamImu(q_cam_imu)) return false;
-  q_cam_imu_ = q_cam_imu.normalized();
-  return true;
+  return anchors_->setRotationCamImu(q_cam_imu);
 }
 
 ImuInput TrackingSession::addImu(const ImuSample& s, std::string* why) {

@@ -88,7 +88,7 @@ class TrackingSession {
   bool rotationFromOptions() const { return anchors_->rotationFromOptions(); }
   // The IMU -> camera rotation in use (the option's, or tf's once given); none
   // while unknown (the IMU axes are then taken for the camera's).
-  const std::optional<Eigen::Quaterniond>& rotationCamImu() const { return q_cam_imu_; }
+  const std::optional<Eigen::Quaterniond>& rotationCamImu() const { return anchors_->imu().rotationCamImu(); }
   // An IMU sample, in stamp order (see AnchorManager::addImu for the outcomes).
   // Frames waiting for it may become ready: takeResults() afterwards.
   ImuInput addImu(const ImuSample& s, std::string* why = nullptr);
@@ -169,7 +169,6 @@ class TrackingSession {
   PlanarTargetManager targets_;
   std::unique_ptr<AnchorManager> anchors_;  // after regions_, which it refers to
   CameraModel info_;
-  std::optional<Eigen::Quaterniond> q_cam_imu_;
   std::deque<Pending> pending_;
   std::vector<FrameResult> results_;
   MotionData last_motion_;

@@ -241,7 +241,7 @@ bool ImuOrientation::R_world_imu(double t, Eigen::Matrix3d* R) const {
 bool ImuOrientation::R_world_cam(double t, Eigen::Matrix3d* R) const {
   Eigen::Matrix3d R_wi;
   if (!R_world_imu(t, &R_wi)) return false;
-  if (R) *R = R_wi * q_cam_imu_.toRotationMatrix().transpose();
+  if (R) *R = q_cam_imu_ ? R_wi * q_cam_imu_->toRotationMatrix().transpose() : R_wi;
   return true;
 }
 

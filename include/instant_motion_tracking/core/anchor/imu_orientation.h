@@ -55,6 +55,7 @@
 
 #include <cstddef>
 #include <deque>
+#include <optional>
 #include <string>
 
 namespace imt {
@@ -72,6 +73,10 @@ class ImuOrientation {
   // Rotation of the IMU in the camera optical frame (R_cam_imu); a
   // non-finite or zero quaternion is ignored (returns false).
   bool setRotationCamImu(const Eigen::Quaterniond& R_cam_imu);
+  // The rotation given by setRotationCamImu(); none until then, when the IMU
+  // axes are taken for the camera's (identity). reset() keeps it: it belongs
+  // to the rig, not to the stream.
+  const std::optional<Eigen::Quaterniond>& rotationCamImu() const { return q_cam_imu_; }
 
   // Orientation at stamp t (slerp between the bracketing samples); false when
   // t is outside [oldestStamp(), newestStamp()] or no sample was accepted.
@@ -120,7 +125,7 @@ class ImuOrientation {
   void prune();
 
   ImuOptions options_;
-  Eigen::Quaterniond q_cam_imu_ = Eigen::Quaterniond::Identity();
+  std::optional<Eigen::Quaterniond> q_cam_imu_;
   Eigen::Vector3d bias_ = Eigen::Vector3d::Zero();
   bool bias_estimated_ = false;
   double estimate_seconds_ = 0;  // duration of the still stretch behind the estimate

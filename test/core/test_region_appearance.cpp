@@ -8,6 +8,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include <cmath>
+#include <cstdio>
 
 namespace imt {
 namespace {
@@ -50,7 +51,7 @@ double centreError(const cv::Rect2d& a, const cv::Rect2d& b) {
 // its own features taken there).
 RegionState placed(const RegionTracker& tracker, const cv::Mat& image, const cv::Rect2d& box) {
   RegionState s = RegionState::start(1, box, 0.0);
-  tracker.initFromImage(&s, image);
+  tracker.initFromImage(&s, image, MotionData());
   return s;
 }
 
@@ -69,6 +70,33 @@ TEST(RegionAppearance, FindsAShiftedPatchAndRefusesAFlatOne) {
   RegionAppearance flat;
   EXPECT_FALSE(RegionAppearance::create(cv::Mat(kSize, CV_8UC1, cv::Scalar(90)), box, 40, &flat));
   EXPECT_FALSE(RegionAppearance::create(img, cv::Rect2d(-500, 0, 60, 40), 40, &flat));
+}
+
+// A lost region's size changed while it was unseen: the whole-frame search
+// (coarse to fine) tries the wider scale range, and finds the patch grown by
+// 1.2 and moved across the frame, where its own size alone matches poorly.
+TEST(RegionAppearance, FindsAGrownPatchAnywhereAtTheLostScales) {
+  const cv::Mat img = texture();
+  const cv::Rect2d box(40, 40, 60, 40);
+  RegionAppearance a;
+  ASSERT_TRUE(RegionAppearance::create(img, box, 40, &a));
+  // The patch's centre moved to (220, 150) and the view zoomed by 1.2 about it.
+  const cv::Point2d from(box.x + box.width / 2, box.y + box.height / 2), to(220, 150);
+  const cv::Mat m = (cv::Mat_<double>(2, 3) << 1.2, 0, to.x - 1.2 * from.x, 0, 1.2, to.y - 1.2 * from.y);
+  cv::Mat moved;
+  cv::warpAffine(img, moved, m, img.size(), cv::INTER_LINEAR, cv::BORDER_REFLECT);
+  const cv::Rect2d truth(to.x - 36, to.y - 24, 72, 48);
+  const AppearanceMatch lost = a.matchAnywhere(moved, box);
+  ASSERT_TRUE(lost.found);
+  // Within 2 px and 5% of the size: one template px is 1.5 image px here,
+  // and the scales are 1.1 and 1.2 apart.
+  EXPECT_LT(centreError(lost.box, truth), 2.0);
+  EXPECT_NEAR(lost.box.width / truth.width, 1.0, 0.05);
+  // Above reacquire_score (0.75); at the box's own size alone it is not.
+  EXPECT_GT(lost.score, 0.75);
+  EXPECT_LT(a.matchAnywhere(moved, box, {1.0}).score, 0.75);
+  std::printf("grown patch: score %.3f (own size alone %.3f), centre error %.2f px, size ratio %.3f\n", lost.score,
+              a.matchAnywhere(moved, box, {1.0}).score, centreError(lost.box, truth), lost.box.width / truth.width);
 }
 
 TEST(RegionAppearance, UnsupportedRegionIsPulledOntoItsLook) {

@@ -89,7 +89,7 @@ Tracked track(const std::string& name,
   std::optional<SceneOptions> opt = SceneOptions::fromPreset(name);
   EXPECT_TRUE(opt) << name;
   if (!opt) return t;
-  opt->seed = 1;
+  opt->seed = std::getenv("IMT_SEED") ? std::atoi(std::getenv("IMT_SEED")) : 1;
   std::string err;
   t.scene = SceneGenerator::create(*opt, &err);
   EXPECT_TRUE(t.scene) << err;
@@ -134,6 +134,15 @@ Tracked track(const std::string& name,
     EXPECT_TRUE(session.seekRegions(t.scene->frameStamp(k), {kId}, &s, &err)) << err;
     if (!s.empty()) t.states[k] = s[0];
   }
+  // IMT_TEST_TRACE=1: the target's state and truth at every frame, on stdout.
+  if (std::getenv("IMT_TEST_TRACE"))
+    for (int k = 0; k < frames; ++k)
+      if (const auto& s = t.states[k]; s && region(t.truth[k], kId))
+        std::printf("%d %s %s app %.2f conf %.2f box %.0f %.0f %.0f %.0f truth %.0f %.0f %.0f %.0f seen %.2f\n", k,
+                    regionStatusName(s->status), s->reason.c_str(), s->appearance_score, s->confidence, s->box.x,
+                    s->box.y, s->box.width, s->box.height, region(t.truth[k], kId)->box.x,
+                    region(t.truth[k], kId)->box.y, region(t.truth[k], kId)->box.width,
+                    region(t.truth[k], kId)->box.height, seenFraction(t.truth[k]));
   return t;
 }
 
@@ -153,10 +162,14 @@ TEST(RegionFailureClass, SmallTargetAt720p) {
       "frames (goal %.2f)\n",
       b.width, b.height, t.size.width, t.size.height, t.start, iou, n, kGoal);
   EXPECT_GT(n, 200);
-  // Measured 0.497 (0.101 on motion data alone: the target gets no
-  // features, turns featureless and rides the camera motion; its look now
-  // pulls it back). Floor 0.05 under it. Goal 0.85.
-  EXPECT_GE(iou, 0.45);
+  // Measured 0.449 (0.101 on motion data alone: the target gets no
+  // features, turns featureless and rides the camera motion; its look pulls
+  // it back until frame ~128, where it is lost and, its look no longer
+  // reaching reacquire_score, not found again; 0.497 before the lost search
+  // became coarse to fine, which found it again late by a hair). Seeds 2-4:
+  // 0.282, 0.325, 0.396. Floor 0.05 under. Goal 0.85: own features reach it
+  // (next test), but are off by default (real data, docs/benchmarks.md).
+  EXPECT_GE(iou, 0.40);
 }
 
 // The same with each region tracking corners of its own (region_features):
@@ -268,13 +281,15 @@ TEST(RegionFailureClass, HiddenFor2sThenBack) {
   EXPECT_NEAR((hidden_to - hidden_from) / fps, 2.0, 0.2);
   EXPECT_GT(nb, 30);
   EXPECT_GT(na, 30);
-  // Measured before 0.833, after 0.743 (on motion data alone 0.831 / 0.551;
-  // seeds 2, 3 then: 0.867 / 0.469, 0.809 / 0.074): the region stays
-  // "tracked" through the hiding, on 7-9 inliers that cannot be the
-  // target's, and its box grows; its look pulls it back onto the target
-  // once it is out again. Floors 0.05 under. Goal 0.85 each.
+  // Measured before 0.833, after 0.930 (seeds 2-4: 0.879 / 0.917, 0.858 /
+  // 0.886, 0.887 / 0.911). The region is lost as it goes under (it no
+  // longer looks like itself) and found again by its look at placement over
+  // the whole frame, 1.1x larger, 6 frames after it is wholly back. Before
+  // the lost search tried the look at placement and a wider scale range it
+  // was found 20 frames later, or never (after 0.743; seeds 2, 3: 0.469,
+  // 0.074). Floors 0.05 under. Goal 0.85 each.
   EXPECT_GE(before, 0.78);
-  EXPECT_GE(again, 0.69);
+  EXPECT_GE(again, 0.88);
 }
 
 }  // namespace

@@ -195,6 +195,46 @@ TEST(RegionTracker, CardWithNoFeaturesLeftCoastsOnItsOwnMotion) {
   EXPECT_GT(sum / 22, 0.9) << "not picked up again behind the cover";
 }
 
+// A card the camera follows as it moves forward (a car followed by a car):
+// the background grows by 2% a frame while the card keeps its size in the
+// image. Covered by a featureless sheet for 8 frames, the card coasts: its
+// size goes on as it was (its own scale rate), not as the background's.
+TEST(RegionTracker, CoastingCardKeepsItsOwnSizeWhileTheBackgroundGrows) {
+  World w = makeWorld();
+  const double zoom = 1.02;
+  w.camera = [zoom](int k) {
+    const double s = std::pow(zoom, k);
+    Eigen::Matrix3d H;  // zoom about the image centre
+    H << s, 0, 320 * (1 - s), 0, s, 240 * (1 - s), 0, 0, 1;
+    return H;
+  };
+  Object card, cover;
+  card.points = randomPoints(60, 120, 90, 5, true);
+  card.half_size = {60, 45};
+  // Drifting slowly right in the image, at a constant image size.
+  card.centre = [zoom](int k) {
+    const double s = std::pow(zoom, k);
+    return Eigen::Vector2d(320 + (-100 + 2.0 * k) / s, 240);
+  };
+  card.scale = [zoom](int k) { return 1.0 / std::pow(zoom, k); };
+  cover.textured = false;
+  cover.half_size = {90, 80};
+  cover.centre = [zoom](int k) {
+    return k >= 20 && k < 28 ? Eigen::Vector2d(320 + (-100 + 2.0 * 24) / std::pow(zoom, k), 240)
+                             : Eigen::Vector2d(-5000, -5000);
+  };
+  cover.scale = [zoom](int k) { return 1.0 / std::pow(zoom, k); };
+  w.objects = {card, cover};
+  const auto md = w.motionData(40);
+  const Track tr = trackForward(md, w.box(0, 0), 0);
+  for (int k = 20; k < 28; ++k) {
+    ASSERT_EQ(tr.states[k].status, RegionStatus::kTracked) << "frame " << k;
+    // Within 3% of the card's width: by the background's zoom it would be
+    // 1.02^8 = 17% too wide by the end.
+    EXPECT_NEAR(tr.states[k].box.width / w.box(0, k).width, 1.0, 0.03) << "frame " << k;
+  }
+}
+
 TEST(RegionTracker, OutOfViewAndBack) {
   World w;
   for (auto& p : randomPoints(4000, 2400, 1000, 12, false)) w.background.push_back(p - Eigen::Vector2d(800, 250));

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdlib>
 
 namespace imt {
 namespace {
@@ -61,6 +62,9 @@ AppearanceMatch bestMatch(const cv::Mat& templ, const cv::Mat& window, cv::Point
   return m;
 }
 
+// A scale change must earn its place: the unscaled match wins ties.
+double scalePenalty(double scale) { return scale == 1.0 ? 0.0 : 0.01; }
+
 }  // namespace
 
 bool RegionAppearance::create(const cv::Mat& gray, const cv::Rect2d& box, int size, RegionAppearance* out) {
@@ -77,11 +81,23 @@ bool RegionAppearance::create(const cv::Mat& gray, const cv::Rect2d& box, int si
   return true;
 }
 
-AppearanceMatch RegionAppearance::match(const cv::Mat& gray, const cv::Rect2d& box, double margin) const {
+const std::vector<double>& RegionAppearance::trackedScales() {
+  static const std::vector<double> scales = {1.0, 1.0 / 1.05, 1.05};
+  return scales;
+}
+
+const std::vector<double>& RegionAppearance::lostScales() {
+  static const std::vector<double> scales = {1.0, 1.0 / 1.1, 1.1, 1.0 / 1.2, 1.2};
+  return scales;
+}
+
+AppearanceMatch RegionAppearance::match(const cv::Mat& gray, const cv::Rect2d& box, double margin,
+                                        const std::vector<double>& scales) const {
   AppearanceMatch best;
   if (!valid() || gray.empty() || !(box.width >= 1 && box.height >= 1)) return best;
   cv::Mat window, response;
-  for (const double scale : {1.0, 1.0 / 1.05, 1.05}) {
+  double best_key = -2;  // the score less the scale's penalty
+  for (const double scale : scales) {
     const double w = box.width * scale, h = box.height * scale;
     const cv::Point2d c(box.x + box.width / 2, box.y + box.height / 2);
     const double sx = templ_.cols / w, sy = templ_.rows / h;
@@ -99,9 +115,8 @@ AppearanceMatch RegionAppearance::match(const cv::Mat& gray, const cv::Rect2d& b
       const int py = std::clamp(static_cast<int>(std::lround((box.y - area.y) * ay)), 0, response.rows - 1);
       best.score_at_box = response.at<float>(py, px);
     }
-    // A scale change must earn its place: the unscaled match wins ties.
-    const double penalty = scale == 1.0 ? 0.0 : 0.01;
-    if (m.score - penalty > best.score) {
+    if (m.score - scalePenalty(scale) > best_key) {
+      best_key = m.score - scalePenalty(scale);
       const double keep = best.score_at_box;
       best = m;
       best.score_at_box = keep;
@@ -110,15 +125,39 @@ AppearanceMatch RegionAppearance::match(const cv::Mat& gray, const cv::Rect2d& b
   return best;
 }
 
-AppearanceMatch RegionAppearance::matchAnywhere(const cv::Mat& gray, const cv::Rect2d& box) const {
-  AppearanceMatch m;
-  if (!valid() || gray.empty() || !(box.width >= 1 && box.height >= 1)) return m;
-  const double sx = templ_.cols / box.width, sy = templ_.rows / box.height;
-  const cv::Size wsize(static_cast<int>(std::lround(gray.cols * sx)), static_cast<int>(std::lround(gray.rows * sy)));
+AppearanceMatch RegionAppearance::matchAnywhere(const cv::Mat& gray, const cv::Rect2d& box,
+                                               const std::vector<double>& scales) const {
+  AppearanceMatch best;
+  if (!valid() || gray.empty() || !(box.width >= 1 && box.height >= 1)) return best;
+  // Coarse to fine: the whole frame is searched with the template shrunk to
+  // 12 px along its shorter side (a quarter of the cost of a 40 x 24 one,
+  // per scale), and each scale's best place is then matched with the whole
+  // template close around it.
+  const double coarse = std::min(1.0, 12.0 / std::min(templ_.cols, templ_.rows));
+  cv::Mat small;
+  if (coarse < 1)
+    cv::resize(templ_, small,
+               cv::Size(std::max(4, static_cast<int>(std::lround(templ_.cols * coarse))),
+                        std::max(4, static_cast<int>(std::lround(templ_.rows * coarse)))),
+               0, 0, cv::INTER_AREA);
+  const cv::Mat& t = coarse < 1 ? small : templ_;
   cv::Mat window, response;
-  if (!sample(gray, cv::Rect2d(0, 0, gray.cols, gray.rows), wsize, 1.0, &window)) return m;
-  return bestMatch(templ_, window, cv::Point2d(0, 0), wsize.width / static_cast<double>(gray.cols),
-                   wsize.height / static_cast<double>(gray.rows), &response);
+  double best_key = -2;  // the score less the scale's penalty
+  for (const double scale : scales) {
+    const double sx = t.cols / (scale * box.width), sy = t.rows / (scale * box.height);
+    const cv::Size wsize(static_cast<int>(std::lround(gray.cols * sx)),
+                         static_cast<int>(std::lround(gray.rows * sy)));
+    if (!sample(gray, cv::Rect2d(0, 0, gray.cols, gray.rows), wsize, 1.0, &window)) continue;
+    AppearanceMatch m = bestMatch(t, window, cv::Point2d(0, 0), wsize.width / static_cast<double>(gray.cols),
+                                  wsize.height / static_cast<double>(gray.rows), &response);
+    // Refined within two coarse pixels either way.
+    if (m.found && coarse < 1) m = match(gray, m.box, 2.0 / t.cols, {1.0});
+    if (m.found && m.score - scalePenalty(scale) > best_key) {
+      best_key = m.score - scalePenalty(scale);
+      best = m;
+    }
+  }
+  return best;
 }
 
 void RegionAppearance::blend(const cv::Mat& gray, const cv::Rect2d& box, double rate) {

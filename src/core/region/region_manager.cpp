@@ -140,7 +140,7 @@ bool RegionManager::add(uint32_t id, double stamp, const cv::Rect2d& box, uint32
   Region& r = regions_[id];
   r.id = id;
   RegionState start = RegionState::start(id, box, cache_.at(seq).stamp);
-  RegionTracker(options_, cache_.imageSize()).initFromImage(&start, imageOf(seq));
+  RegionTracker(options_, cache_.imageSize()).initFromImage(&start, imageOf(seq), cache_.at(seq));
   r.states[seq] = start;
   stateAt(r, cache_.lastSeq());  // catch up to the present
   *assigned_id = id;

@@ -13,6 +13,7 @@
 namespace imt {
 namespace {
 
+
 // One motion vector in the tracking direction: src in the state's frame, dst
 // in the frame being tracked into.
 struct Vec {
@@ -239,17 +240,38 @@ RegionState RegionTracker::step(const RegionState& state, const MotionData& md, 
   // behind an occluder, nor when it does not look like itself.
   const bool seen = next.status == RegionStatus::kTracked && next.coast_frames == 0 &&
                     (next.appearance_score < -0.5 || next.appearance_score >= options_.appearance_lost_score);
-  if (seen) addOwnFeatures(&next, image);
+  if (seen) {
+    const auto motion = [](uint32_t id) { return id < kOwnFeatureIdBase; };
+    addOwnFeatures(&next, image,
+                   static_cast<int>(std::count_if(next.inliers.begin(), next.inliers.end(), motion) +
+                                    std::count_if(next.outliers.begin(), next.outliers.end(), motion)));
+  }
   return next;
 }
 
 void RegionTracker::reacquire(RegionState* next, const cv::Mat& image) const {
   const RegionTrackerOptions& o = options_;
   next->lost_frames += 1;
-  AppearanceMatch m = next->appearance.match(image, next->box, 1.0);
-  if ((!m.found || m.score < o.reacquire_score) && o.reacquire_interval > 0 &&
-      next->lost_frames % o.reacquire_interval == 1 % o.reacquire_interval)
-    m = next->appearance.matchAnywhere(image, next->box);
+  // Around its last place with its latest look, on every frame; over the
+  // whole frame every reacquire_interval frames, with its latest look and its
+  // look at placement in turn (the latest may have taken on what covered
+  // it), the look at placement also tried around its last place then. Its
+  // size changed unseen while it was lost: the wider scale range.
+  const auto& scales = RegionAppearance::lostScales();
+  AppearanceMatch m = next->appearance.match(image, next->box, 1.0, scales);
+  const int k = o.reacquire_interval > 0 ? (next->lost_frames - 1) / o.reacquire_interval : 0;
+  const bool search_all = o.reacquire_interval > 0 && (next->lost_frames - 1) % o.reacquire_interval == 0;
+  if (search_all && (!m.found || m.score < o.reacquire_score)) {
+    const bool first = k % 2 == 1 && next->first_appearance.valid();
+    if (first) {
+      const AppearanceMatch f = next->first_appearance.match(image, next->box, 1.0, scales);
+      if (f.found && f.score > m.score) m = f;
+    }
+    if (!m.found || m.score < o.reacquire_score) {
+      const AppearanceMatch a = (first ? next->first_appearance : next->appearance).matchAnywhere(image, next->box);
+      if (a.found && a.score > m.score) m = a;
+    }
+  }
   if (!m.found || m.score < o.reacquire_score) return;
   char why[96];
   std::snprintf(why, sizeof(why), "re-acquired by its appearance (correlation %.2f) after %d frames lost", m.score,
@@ -408,6 +430,14 @@ RegionState RegionTracker::stepMotion(const RegionState& state, const MotionData
       return next;
     }
     next.box = camera_box;
+    {
+      // Its size goes on changing as it did, not as the background does: a
+      // car followed by a car keeps its size while the road grows.
+      const double s = std::exp(g * state.scale_rate);
+      const Eigen::Vector2d cc = centre(camera_box);
+      next.box = cv::Rect2d(cc.x() - s * state.box.width / 2, cc.y() - s * state.box.height / 2, s * state.box.width,
+                            s * state.box.height);
+    }
     next.box.x += object_step.x();
     next.box.y += object_step.y();
     next.velocity = (centre(next.box) - c) / g;
@@ -499,6 +529,7 @@ RegionState RegionTracker::stepMotion(const RegionState& state, const MotionData
   const double blend = first ? 0.0 : o.velocity_blend;
   next.velocity = blend * state.velocity + (1 - blend) * shift / g;
   next.object_velocity = blend * state.object_velocity + (1 - blend) * (shift - camera_shift) / g;
+  next.scale_rate = blend * state.scale_rate + (1 - blend) * std::log(next.box.width / state.box.width) / g;
   if (!inliers.empty()) centroid /= static_cast<double>(inliers.size());
   else centroid = centre(next.box);
   next.inlier_centroid = cv::Point2d(centroid.x(), centroid.y());

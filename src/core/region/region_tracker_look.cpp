@@ -20,8 +20,11 @@ std::string RegionLossLog::update(const RegionState& s) {
          s.reason;
 }
 
-void RegionTracker::addOwnFeatures(RegionState* state, const cv::Mat& image) const {
-  const int want = options_.region_features - static_cast<int>(state->own_points.size());
+void RegionTracker::addOwnFeatures(RegionState* state, const cv::Mat& image, int motion_features) const {
+  // Only what the motion analysis does not give: a region it covers well
+  // gets none (its features are spread for the camera motion, not for the
+  // region, and a small box gets few or none).
+  const int want = options_.region_features - motion_features - static_cast<int>(state->own_points.size());
   // Top up only below 3/4 of the target: detecting costs more than tracking.
   if (want <= options_.region_features / 4) return;
   // In the inner part of the box: a box drawn round an object holds some
@@ -35,9 +38,14 @@ void RegionTracker::addOwnFeatures(RegionState* state, const cv::Mat& image) con
   }
 }
 
-void RegionTracker::initFromImage(RegionState* state, const cv::Mat& image) const {
+void RegionTracker::initFromImage(RegionState* state, const cv::Mat& image, const MotionData& md) const {
   if (!usable(image)) return;
-  if (options_.region_features > 0) addOwnFeatures(state, image);
+  if (options_.region_features > 0) {
+    const int in_box = static_cast<int>(std::count_if(md.features.begin(), md.features.end(), [&](const FeatureMotion& f) {
+      return state->box.contains(cv::Point2d(f.x, f.y));
+    }));
+    addOwnFeatures(state, image, in_box);
+  }
   if (options_.appearance &&
       RegionAppearance::create(image, state->box, options_.appearance_size, &state->appearance))
     state->first_appearance = state->appearance;

@@ -22,6 +22,8 @@
 
 #include <opencv2/core.hpp>
 
+#include <vector>
+
 namespace imt {
 
 // The best match of a template in a search window.
@@ -40,14 +42,21 @@ class RegionAppearance {
   static bool create(const cv::Mat& gray, const cv::Rect2d& box, int size, RegionAppearance* out);
 
   bool valid() const { return !templ_.empty(); }
+  // Scales searched: a tracked region's (its size is known within a few
+  // percent) and a lost one's (its size changed unseen while it was lost).
+  static const std::vector<double>& trackedScales();
+  static const std::vector<double>& lostScales();
   // Searches `gray` around `box`: shifts up to `margin` times the box's
-  // sides either way, at the box's scale and 5% either side.
-  AppearanceMatch match(const cv::Mat& gray, const cv::Rect2d& box, double margin) const;
+  // sides either way, at the box's size times each of `scales` (a scale
+  // other than 1 must beat 1 by 0.01 to win).
+  AppearanceMatch match(const cv::Mat& gray, const cv::Rect2d& box, double margin,
+                        const std::vector<double>& scales = trackedScales()) const;
   // The look of `box` in `gray` blended in with weight `rate` (0 .. 1).
   void blend(const cv::Mat& gray, const cv::Rect2d& box, double rate);
-  // Matches over the whole image at the scale of `box` (its size, anywhere):
-  // finding a region that was lost.
-  AppearanceMatch matchAnywhere(const cv::Mat& gray, const cv::Rect2d& box) const;
+  // Matches over the whole image at the size of `box` times each of
+  // `scales` (anywhere): finding a region that was lost.
+  AppearanceMatch matchAnywhere(const cv::Mat& gray, const cv::Rect2d& box,
+                                const std::vector<double>& scales = lostScales()) const;
 
  private:
   cv::Mat templ_;  // CV_32F, fixed size for the region's life

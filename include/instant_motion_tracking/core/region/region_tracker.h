@@ -68,6 +68,7 @@ struct RegionState {
   double confidence = 0;           // 0 .. 1
   Eigen::Vector2d velocity = Eigen::Vector2d::Zero();  // px/frame of the box centre, in the tracking direction
   Eigen::Vector2d object_velocity = Eigen::Vector2d::Zero();  // px/frame relative to the background (camera) motion
+  double scale_rate = 0;  // log size change per frame, smoothed as velocity is (what a coasting region keeps)
   double support = 0;              // reference inlier count (slowly decaying maximum)
   std::vector<uint32_t> inliers;   // feature IDs that support the region (sorted)
   std::vector<uint32_t> outliers;  // feature IDs inside it that move differently (sorted)
@@ -120,9 +121,9 @@ class RegionTracker {
   RegionState step(const RegionState& state, const MotionData& md, Direction dir, double prev_stamp = 0,
                    const cv::Mat& image = cv::Mat(), const cv::Mat& state_image = cv::Mat()) const;
   // Takes the region's look and its own features from `image`, the frame of
-  // its box (no-op without an image; no look when appearance is off or the
-  // box is flat).
-  void initFromImage(RegionState* state, const cv::Mat& image) const;
+  // its box, whose motion data `md` has features of its own (no-op without
+  // an image; no look when appearance is off or the box is flat).
+  void initFromImage(RegionState* state, const cv::Mat& image, const MotionData& md) const;
   // Ids of the regions' own features start here (the motion analysis's are below).
   static constexpr uint32_t kOwnFeatureIdBase = 0x80000000u;
 
@@ -135,7 +136,9 @@ class RegionTracker {
   // too (`own`: those that were) and join the fit.
   RegionState stepMotion(const RegionState& state, const MotionData& md, Direction dir, double prev_stamp,
                          const cv::Mat& from_image, const cv::Mat& to_image, std::vector<OwnFeature>* own) const;
-  void addOwnFeatures(RegionState* state, const cv::Mat& image) const;
+  // Tops the region's own features up to region_features, counting the
+  // `motion_features` the motion analysis has inside its box.
+  void addOwnFeatures(RegionState* state, const cv::Mat& image, int motion_features) const;
   // The appearance check after the motion step (`motion_weak`: the step had
   // no support of its own), and the search for a lost region.
   void checkAppearance(const RegionState& state, RegionState* next, bool motion_weak, const cv::Mat& image) const;

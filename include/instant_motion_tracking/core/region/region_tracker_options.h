@@ -82,7 +82,8 @@ struct RegionTrackerOptions {
       "frames without a camera model move by the IMU rotation (anchors); with this many features, "
       "plus their median residual (the translation)");
     v("region_features", region_features,
-      "corners each region tracks of its own inside its box, besides the motion analysis's (0 = none)");
+      "features each region is given at least inside its box: corners of its own tracked besides the motion "
+      "analysis's, as many as the motion analysis falls short of this (0 = none)");
     v("region_feature_px", region_feature_px,
       "px; its own features are tracked at full resolution in boxes up to this size, larger boxes downscaled to it");
     v("appearance", appearance,

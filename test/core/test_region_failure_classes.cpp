@@ -162,14 +162,14 @@ TEST(RegionFailureClass, SmallTargetAt720p) {
       "frames (goal %.2f)\n",
       b.width, b.height, t.size.width, t.size.height, t.start, iou, n, kGoal);
   EXPECT_GT(n, 200);
-  // Measured 0.449 (0.101 on motion data alone: the target gets no
+  // Measured 0.475 (0.101 on motion data alone: the target gets no
   // features, turns featureless and rides the camera motion; its look pulls
-  // it back until frame ~128, where it is lost and, its look no longer
-  // reaching reacquire_score, not found again; 0.497 before the lost search
-  // became coarse to fine, which found it again late by a hair). Seeds 2-4:
-  // 0.282, 0.325, 0.396. Floor 0.05 under. Goal 0.85: own features reach it
-  // (next test), but are off by default (real data, docs/benchmarks.md).
-  EXPECT_GE(iou, 0.40);
+  // it back until frame ~128, where it is lost, and finds it again later by
+  // its look at placement at the aspect it was taken at). Seeds 2-4: 0.484,
+  // 0.522, 0.596 (0.282, 0.325, 0.396 when the lost search used the latest
+  // look only). Floor 0.05 under. Goal 0.85: own features reach it (next
+  // test), but are off by default (real data, docs/benchmarks.md).
+  EXPECT_GE(iou, 0.42);
 }
 
 // The same with each region tracking corners of its own (region_features):

@@ -113,6 +113,15 @@ cv::Rect2d moveBox(const cv::Rect2d& box, const LocalModel& m) {
 
 Eigen::Vector2d centre(const cv::Rect2d& b) { return {b.x + b.width / 2, b.y + b.height / 2}; }
 
+// `b` with the aspect (width / height) `aspect` and the same centre and area;
+// `b` itself when the aspect is unknown (0).
+cv::Rect2d withAspect(const cv::Rect2d& b, double aspect) {
+  if (!(aspect > 0) || !(b.height > 0)) return b;
+  const double k = std::sqrt(aspect / (b.width / b.height));
+  const Eigen::Vector2d c = centre(b);
+  return cv::Rect2d(c.x() - k * b.width / 2, c.y() - b.height / k / 2, k * b.width, b.height / k);
+}
+
 // A region with at least this much support (inlier count) that loses its
 // features coasts on its own motion instead of following the background.
 constexpr double kMinSupportToCoast = 5;
@@ -157,6 +166,7 @@ RegionState RegionState::start(uint32_t id, const cv::Rect2d& box, double stamp)
   s.box = box;
   s.stamp = stamp;
   s.inlier_centroid = cv::Point2d(box.x + box.width / 2, box.y + box.height / 2);
+  s.placed_aspect = box.height > 0 ? box.width / box.height : 0;
   return s;
 }
 
@@ -263,12 +273,15 @@ void RegionTracker::reacquire(RegionState* next, const cv::Mat& image) const {
   const bool search_all = o.reacquire_interval > 0 && (next->lost_frames - 1) % o.reacquire_interval == 0;
   if (search_all && (!m.found || m.score < o.reacquire_score)) {
     const bool first = k % 2 == 1 && next->first_appearance.valid();
+    // The look at placement, at the aspect it was taken at.
+    const cv::Rect2d placed_box = withAspect(next->box, next->placed_aspect);
     if (first) {
-      const AppearanceMatch f = next->first_appearance.match(image, next->box, 1.0, scales);
+      const AppearanceMatch f = next->first_appearance.match(image, placed_box, 1.0, scales);
       if (f.found && f.score > m.score) m = f;
     }
     if (!m.found || m.score < o.reacquire_score) {
-      const AppearanceMatch a = (first ? next->first_appearance : next->appearance).matchAnywhere(image, next->box);
+      const AppearanceMatch a = first ? next->first_appearance.matchAnywhere(image, placed_box)
+                                      : next->appearance.matchAnywhere(image, next->box);
       if (a.found && a.score > m.score) m = a;
     }
   }
@@ -277,8 +290,9 @@ void RegionTracker::reacquire(RegionState* next, const cv::Mat& image) const {
   std::snprintf(why, sizeof(why), "re-acquired by its appearance (correlation %.2f) after %d frames lost", m.score,
                 next->lost_frames);
   const RegionAppearance look = next->appearance, first = next->first_appearance;
-  const double interval = next->frame_interval;
+  const double interval = next->frame_interval, placed_aspect = next->placed_aspect;
   *next = RegionState::start(next->id, m.box, next->stamp);
+  next->placed_aspect = placed_aspect;
   next->appearance = look;
   next->first_appearance = first;
   next->frame_interval = interval;

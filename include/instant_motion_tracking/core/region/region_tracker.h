@@ -69,6 +69,7 @@ struct RegionState {
   Eigen::Vector2d velocity = Eigen::Vector2d::Zero();  // px/frame of the box centre, in the tracking direction
   Eigen::Vector2d object_velocity = Eigen::Vector2d::Zero();  // px/frame relative to the background (camera) motion
   double scale_rate = 0;  // log size change per frame, smoothed as velocity is (what a coasting region keeps)
+  double placed_aspect = 0;  // width / height of the box it was given (0: unknown); its look's
   double support = 0;              // reference inlier count (slowly decaying maximum)
   std::vector<uint32_t> inliers;   // feature IDs that support the region (sorted)
   std::vector<uint32_t> outliers;  // feature IDs inside it that move differently (sorted)

@@ -242,9 +242,10 @@ TEST(RegionFailureClass, GivenMidSequenceBothWays) {
       t.start, backward, nb, forward, nf, kGoal);
   EXPECT_GT(nb, 100);
   EXPECT_GT(nf, 100);
-  // Measured backward 0.832, forward 0.819 (on motion data alone 0.832 /
-  // 0.802; seeds 2, 3 then: 0.828 / 0.800, 0.828 / 0.837). Floors 0.05
-  // under. Goal 0.85 each.
+  // Measured backward 0.832, forward 0.813 (seeds 2-4: 0.827 / 0.810,
+  // 0.828 / 0.840, 0.826 / 0.716; forward 0.819 when a firmly carried
+  // region's look was also matched at 5% either side of its size; on motion
+  // data alone 0.832 / 0.802). Floors 0.05 under. Goal 0.85 each.
   EXPECT_GE(backward, 0.78);
   EXPECT_GE(forward, 0.77);
 }
@@ -281,8 +282,8 @@ TEST(RegionFailureClass, HiddenFor2sThenBack) {
   EXPECT_NEAR((hidden_to - hidden_from) / fps, 2.0, 0.2);
   EXPECT_GT(nb, 30);
   EXPECT_GT(na, 30);
-  // Measured before 0.833, after 0.930 (seeds 2-4: 0.879 / 0.917, 0.858 /
-  // 0.886, 0.887 / 0.911). The region is lost as it goes under (it no
+  // Measured before 0.830, after 0.913 (seeds 2-4: 0.879 / 0.917, 0.859 /
+  // 0.918, 0.887 / 0.902). The region is lost as it goes under (it no
   // longer looks like itself) and found again by its look at placement over
   // the whole frame, 1.1x larger, 6 frames after it is wholly back. Before
   // the lost search tried the look at placement and a wider scale range it

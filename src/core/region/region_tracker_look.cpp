@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <vector>
 
 namespace imt {
 
@@ -59,7 +60,11 @@ void RegionTracker::checkAppearance(const RegionState& state, RegionState* next,
     return;
   }
   const double margin = motion_weak ? 2 * o.appearance_margin : o.appearance_margin;
-  const AppearanceMatch m = state.appearance.match(image, next->box, margin);
+  // Where the features carry the region they measure its scale, and the
+  // look's sizes are not used (below): its own size only, a third the cost.
+  static const std::vector<double> own_size = {1.0};
+  const auto& scales = motion_weak ? RegionAppearance::trackedScales() : own_size;
+  const AppearanceMatch m = state.appearance.match(image, next->box, margin, scales);
   if (!m.found) {
     next->appearance_score = -1;
     return;
@@ -98,7 +103,7 @@ void RegionTracker::checkAppearance(const RegionState& state, RegionState* next,
     // the look at placement agrees on where the region is (else the
     // template would learn whatever drifted into the box).
     if (!motion_weak || score >= o.reacquire_score) {
-      const AppearanceMatch first = state.first_appearance.match(image, next->box, 0.1);
+      const AppearanceMatch first = state.first_appearance.match(image, next->box, 0.1, scales);
       const cv::Point2d d = (first.box.tl() + first.box.br()) / 2 - (next->box.tl() + next->box.br()) / 2;
       const double tolerance = 0.015 * std::max(next->box.width, next->box.height);
       const bool first_agrees = first.found && first.score >= o.appearance_lost_score && std::hypot(d.x, d.y) <= tolerance;

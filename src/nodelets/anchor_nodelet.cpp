@@ -84,7 +84,9 @@ void AnchorNodelet::imuCb(const sensor_msgs::ImuConstPtr& msg) {
     case ImuInput::kAccepted:
       break;
     case ImuInput::kReset:
-      NODELET_WARN("%s", why.c_str());
+      // Throttled: a driver that sends stamps out of order would restart it
+      // on every backward sample (issue 16 measured 200 lines a second).
+      NODELET_WARN_THROTTLE(5.0, "%s", why.c_str());
       break;
     case ImuInput::kDropped:
     case ImuInput::kGap:

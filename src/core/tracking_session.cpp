@@ -145,7 +145,23 @@ std::vector<RegionState> TrackingSession::userRegions(std::vector<RegionState> s
 
 void TrackingSession::flushFor(double stamp) {
   if (pending_.empty()) return;
-  if (stamp == 0 || stamp > regions_.newestStamp()) advance(true);
+  if (stamp == 0) {
+    // "Now" is the newest frame through the trackers: frames still waiting
+    // for their IMU are left to it (forced through, they would go without
+    // it: anchors no_imu there). Before any frame went through, they go.
+    if (regions_.cache().empty()) advance(true);
+    return;
+  }
+  if (!regions_.cache().empty() && stamp <= regions_.newestStamp()) return;  // already through
+  // Asked for by its stamp: the waiting frames up to the first at or after
+  // it go through, the later ones wait on.
+  while (!pending_.empty()) {
+    const bool reached = pending_.front().md.stamp >= stamp;
+    Pending frame = std::move(pending_.front());
+    pending_.pop_front();
+    track(std::move(frame));
+    if (reached) break;
+  }
 }
 
 bool TrackingSession::addRegion(uint32_t id, double stamp, const cv::Rect2d& box, uint32_t* assigned_id,

@@ -241,6 +241,52 @@ TEST(TrackingSession, LiveAndOfflineAgreeOnAnchors) {
   EXPECT_GT(tracked, static_cast<int>(r.frames.size()) / 2);
 }
 
+// Requests given "now" (stamp 0) while frames wait for their IMU (the
+// driver 0.05 s late): they go to the newest frame already through the
+// trackers, and the waiting frames keep waiting, so every frame's anchor
+// has the IMU. Forcing the waiting frames through (as a refused add_anchor
+// once did) gave them status no_imu (rostest anchor_nodelet, frame 20).
+TEST(TrackingSession, RequestsForNowLeaveFramesWaitingForTheImu) {
+  const Rendered r = render("floor_walk", 1.5);
+  ASSERT_TRUE(r.scene);
+  TrackingSession s(PipelineOptions(), TrackingSession::Mode::kLive);
+  s.setCameraInfo(r.scene->intrinsics());
+  ASSERT_TRUE(s.setRotationCamImu(r.scene->options().q_cam_imu));
+  std::vector<FrameResult> results;
+  size_t next_imu = 0;
+  uint32_t id;
+  std::string err;
+  const int given = 10;
+  for (int i = 0; i < static_cast<int>(r.frames.size()); ++i) {
+    const double t = r.scene->frameStamp(i);
+    while (next_imu < r.imu.size() && r.imu[next_imu].stamp <= t - 0.05) s.addImu(r.imu[next_imu++]);
+    s.analyze(r.frames[i], t);
+    if (i == given) {
+      const FrameTruth truth = r.scene->frameTruth(given);
+      ASSERT_FALSE(truth.anchors.empty());
+      ASSERT_TRUE(s.addAnchor(1, t, truth.anchors[0].pixel, 0, &id, &err)) << err;
+    }
+    if (i > given) {
+      // Refused and accepted requests for "now" alike.
+      EXPECT_FALSE(s.addAnchor(1, 0, cv::Point2d(100, 100), 0, &id, &err));
+      EXPECT_TRUE(s.addRegion(0, 0, cv::Rect2d(100, 100, 60, 50), &id, &err)) << err;
+      EXPECT_TRUE(s.removeRegion(id, &err)) << err;
+    }
+    for (FrameResult& fr : s.takeResults()) results.push_back(std::move(fr));
+  }
+  while (next_imu < r.imu.size()) s.addImu(r.imu[next_imu++]);
+  s.advance(true);
+  for (FrameResult& fr : s.takeResults()) results.push_back(std::move(fr));
+  ASSERT_EQ(results.size(), r.frames.size());  // every frame once, in order
+  int with_anchor = 0;
+  for (const FrameResult& fr : results) {
+    if (fr.anchors.empty()) continue;
+    ++with_anchor;
+    EXPECT_NE(fr.anchors[0].status, AnchorStatus::kNoImu) << "frame at " << fr.motion.stamp;
+  }
+  EXPECT_GT(with_anchor, 30);
+}
+
 // The cards scene of the live-vs-offline rostest (seed 2, 4 s): a card as a
 // region, the static patch as a planar target and an anchor at its centre,
 // given at frame 30 once frame 60 is in.

@@ -153,7 +153,8 @@ class TrackingSession {
   // The user's regions among `states` (anchors' own regions dropped).
   static std::vector<RegionState> userRegions(std::vector<RegionState> states);
   // Makes sure the frame nearest `stamp` has gone through the trackers
-  // (items given at a frame still waiting for the IMU).
+  // (items given at a frame still waiting for the IMU); stamp 0 ("now") is
+  // the newest frame that already has.
   void flushFor(double stamp);
   // The trackers read the frames' images: the planar alignment (while kept)
   // or the regions (their own features, their look). Then the cache keeps

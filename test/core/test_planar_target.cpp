@@ -276,6 +276,11 @@ TEST(PlanarTarget, BadQuadsAndSizesAreRefused) {
   std::swap(bowtie[1], bowtie[2]);
   EXPECT_FALSE(mk(bowtie, kTw, kTh));
   EXPECT_NE(err.find("convex"), std::string::npos) << err;
+  // Mirrored (TL, BL, BR, TR): refused here as INIT.yaml refuses it (once
+  // accepted, Ceres failed on every frame).
+  const std::array<cv::Point2d, 4> mirrored = {good[0], good[3], good[2], good[1]};
+  EXPECT_FALSE(mk(mirrored, kTw, kTh));
+  EXPECT_NE(err.find("counter-clockwise"), std::string::npos) << err;
   auto line = good;
   line[2] = (line[1] + line[3]) * 0.5;
   EXPECT_FALSE(mk(line, kTw, kTh));

@@ -178,6 +178,11 @@ std::string validateQuad(const std::array<cv::Point2d, 4>& c) {
 std::string validateTargetRequest(const std::array<cv::Point2d, 4>& corners, double width_m,
                                   double height_m) {
   if (std::string e = validateQuad(corners); !e.empty()) return e;
+  // Convex, so the winding is that of any corner (y down: clockwise > 0).
+  const cv::Point2d a = corners[1] - corners[0], b = corners[2] - corners[1];
+  if (a.x * b.y - a.y * b.x < 0)
+    return "corners are counter-clockwise in the image (a mirrored quad): they must be TL, TR, BR, BL, "
+           "clockwise in the image";
   if (!(width_m > 0) || !(height_m > 0) || !std::isfinite(width_m) || !std::isfinite(height_m))
     return "target size must be positive (got " + std::to_string(width_m) + " x " +
            std::to_string(height_m) + " m)";

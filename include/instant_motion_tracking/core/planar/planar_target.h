@@ -63,7 +63,9 @@ struct PlanarTargetState {
 // Empty when the four corners form a usable convex quad (TL, TR, BR, BL in
 // either winding), else why not.
 std::string validateQuad(const std::array<cv::Point2d, 4>& corners);
-// validateQuad() plus a positive, finite physical size: empty when a target
+// validateQuad() with the corners clockwise in the image (TL, TR, BR, BL of
+// a target seen from its front, as INIT.yaml requires: a mirrored quad has
+// no pose), plus a positive, finite physical size: empty when a target
 // request is usable, else why not.
 std::string validateTargetRequest(const std::array<cv::Point2d, 4>& corners, double width_m,
                                   double height_m);

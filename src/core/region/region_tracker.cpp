@@ -13,7 +13,6 @@
 namespace imt {
 namespace {
 
-
 // One motion vector in the tracking direction: src in the state's frame, dst
 // in the frame being tracked into.
 struct Vec {
@@ -89,6 +88,11 @@ Eigen::Vector2d applyH(const Eigen::Matrix3d& H, const Eigen::Vector2d& p) {
   return q.hnormalized();
 }
 
+// The box of size w x h centred on c.
+cv::Rect2d boxAt(const Eigen::Vector2d& c, double w, double h) {
+  return cv::Rect2d(c.x() - w / 2, c.y() - h / 2, w, h);
+}
+
 // Box moved by a homography: its centre is mapped, its size scaled by the
 // local area change of H at the centre.
 cv::Rect2d moveBox(const cv::Rect2d& box, const Eigen::Matrix3d& H) {
@@ -99,16 +103,14 @@ cv::Rect2d moveBox(const cv::Rect2d& box, const Eigen::Matrix3d& H) {
   const Eigen::Vector2d dy = applyH(H, c + Eigen::Vector2d(0, h)) - c2;
   double s = std::sqrt(std::abs(dx.x() * dy.y() - dx.y() * dy.x())) / h;
   if (!std::isfinite(s) || s <= 0) s = 1;
-  return cv::Rect2d(c2.x() - s * box.width / 2, c2.y() - s * box.height / 2, s * box.width,
-                    s * box.height);
+  return boxAt(c2, s * box.width, s * box.height);
 }
 
 cv::Rect2d moveBox(const cv::Rect2d& box, const LocalModel& m) {
   const Eigen::Vector2d c(box.x + box.width / 2, box.y + box.height / 2);
   const Eigen::Vector2d c2 = m.apply(c);
   const double s = m.scale();
-  return cv::Rect2d(c2.x() - s * box.width / 2, c2.y() - s * box.height / 2, s * box.width,
-                    s * box.height);
+  return boxAt(c2, s * box.width, s * box.height);
 }
 
 Eigen::Vector2d centre(const cv::Rect2d& b) { return {b.x + b.width / 2, b.y + b.height / 2}; }
@@ -118,8 +120,7 @@ Eigen::Vector2d centre(const cv::Rect2d& b) { return {b.x + b.width / 2, b.y + b
 cv::Rect2d withAspect(const cv::Rect2d& b, double aspect) {
   if (!(aspect > 0) || !(b.height > 0)) return b;
   const double k = std::sqrt(aspect / (b.width / b.height));
-  const Eigen::Vector2d c = centre(b);
-  return cv::Rect2d(c.x() - k * b.width / 2, c.y() - b.height / k / 2, k * b.width, b.height / k);
+  return boxAt(centre(b), k * b.width, b.height / k);
 }
 
 // A region with at least this much support (inlier count) that loses its
@@ -443,15 +444,11 @@ RegionState RegionTracker::stepMotion(const RegionState& state, const MotionData
       next.confidence = 0;
       return next;
     }
-    next.box = camera_box;
-    {
-      // Its size goes on changing as it did, not as the background does: a
-      // car followed by a car keeps its size while the road grows.
-      const double s = std::exp(g * state.scale_rate);
-      const Eigen::Vector2d cc = centre(camera_box);
-      next.box = cv::Rect2d(cc.x() - s * state.box.width / 2, cc.y() - s * state.box.height / 2, s * state.box.width,
-                            s * state.box.height);
-    }
+    // Where the camera puts it; its size goes on changing as it did, not as
+    // the background does (a car followed by a car keeps its size while the
+    // road grows).
+    const double s = std::exp(g * state.scale_rate);
+    next.box = boxAt(centre(camera_box), s * state.box.width, s * state.box.height);
     next.box.x += object_step.x();
     next.box.y += object_step.y();
     next.velocity = (centre(next.box) - c) / g;

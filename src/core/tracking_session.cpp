@@ -100,13 +100,13 @@ void TrackingSession::pushMotion(const MotionData& md, const cv::Mat& gray) {
 void TrackingSession::advance(bool all) {
   while (!pending_.empty() &&
          (all || anchors_->ready(pending_.front().md.stamp, pending_.back().md.stamp))) {
-    Pending frame = std::move(pending_.front());
-    pending_.pop_front();
-    track(std::move(frame));
+    trackOldest();
   }
 }
 
-void TrackingSession::track(Pending frame) {
+void TrackingSession::trackOldest() {
+  Pending frame = std::move(pending_.front());
+  pending_.pop_front();
   const auto t0 = Clock::now();
   FrameResult r;
   r.regions = userRegions(regions_.update(frame.md, trackersUseImages() ? frame.gray.clone() : cv::Mat()));
@@ -157,9 +157,7 @@ void TrackingSession::flushFor(double stamp) {
   // it go through, the later ones wait on.
   while (!pending_.empty()) {
     const bool reached = pending_.front().md.stamp >= stamp;
-    Pending frame = std::move(pending_.front());
-    pending_.pop_front();
-    track(std::move(frame));
+    trackOldest();
     if (reached) break;
   }
 }

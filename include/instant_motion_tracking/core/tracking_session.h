@@ -148,7 +148,8 @@ class TrackingSession {
     MotionData md;
     cv::Mat gray;
   };
-  void track(Pending frame);
+  // Takes the oldest waiting frame through the trackers.
+  void trackOldest();
   void dropStaleFrames(double stamp);
   // The user's regions among `states` (anchors' own regions dropped).
   static std::vector<RegionState> userRegions(std::vector<RegionState> states);

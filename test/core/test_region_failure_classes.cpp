@@ -11,7 +11,9 @@
 //
 // The goal is 0.85 for every class and half. The floors below are
 // today's figures less 0.05, so that a regression fails while the tracker is
-// being improved; raise them as it improves.
+// being improved; raise them as it improves. The floors hold seed 1; the
+// other seeds' figures quoted beside them come from IMT_SEED=N (the scenes'
+// seed), and IMT_TEST_TRACE=1 prints the target's state at every frame.
 #include "../box_metrics.h"
 #include "instant_motion_tracking/core/tracking_session.h"
 #include "instant_motion_tracking/sim/scene.h"

@@ -27,7 +27,6 @@
 #include "instant_motion_tracking/SeekRegions.h"
 #include "instant_motion_tracking/ros/session_nodelet.h"
 
-
 namespace imt {
 
 class RegionTrackerNodelet : public SessionNodelet {

@@ -9,7 +9,7 @@
 // IoU, precision at 20 px, and frames/s (tracking only, decoding excluded).
 // Single-threaded (cv::setNumThreads(1)).
 //
-//   make -C _build benchmarks && taskset -c 0 _build/benchmark/benchmark_region_real [--ours-only] [--no-appearance] [--set option=value] [--trace] [sequence...]
+//   make -C _build benchmarks && taskset -c 0 _build/benchmark/benchmark_region_real [--ours-only] [--no-appearance] [--set option=value] [--trace] [--starts N] [sequence...]
 #include "instant_motion_tracking/core/tracking_session.h"
 #include "instant_motion_tracking/io/config.h"
 
@@ -34,6 +34,7 @@ using Clock = std::chrono::steady_clock;
 
 struct Row {
   double auc = 0, iou = 0, p20 = 0, fps = 0;
+  double auc_min = 0, auc_max = 0;  // over the runs from nudged starts (--starts)
 };
 
 // Runs one tracker over the sequence: `step(frame number, &box)` tracks frame
@@ -49,7 +50,36 @@ Row run(const imt::test::BoxSequence& seq, const std::vector<cv::Mat>& frames,
     seconds += std::chrono::duration<double>(Clock::now() - t0).count();
     if (f > 1 && seq.scored(f)) score.add(ok, box, seq.box(f), frames[0].size());
   }
-  return {score.successAuc(), score.meanIou(), score.precision20(), seq.frames() / seconds};
+  const double auc = score.successAuc();
+  return {auc, score.meanIou(), score.precision20(), seq.frames() / seconds, auc, auc};
+}
+
+// --starts N: each tracker runs N times, from the first frame's box and from
+// N - 1 copies of it nudged by a pixel or two (what a careful user's drawing
+// varies by). Tracking on real video is chaotic: one run's score moves by a
+// few hundredths on any small change, so a change is judged by the mean and
+// the spread of these runs. The nudge of run k (0: none).
+cv::Rect2d nudged(const cv::Rect2d& b, int k) {
+  static const int kNudge[][4] = {{0, 0, 0, 0},  {1, 0, 0, 0},   {0, 1, 0, 0},  {-1, 0, 0, 0}, {0, -1, 0, 0},
+                                  {0, 0, 2, 0},  {0, 0, 0, 2},   {1, 1, -2, -2}, {-2, 1, 1, 0}, {1, -2, 0, 1},
+                                  {2, 2, 0, 0},  {-2, -2, 2, 2}};
+  const int* n = kNudge[k % (sizeof(kNudge) / sizeof(kNudge[0]))];
+  return cv::Rect2d(b.x + n[0], b.y + n[1], b.width + n[2], b.height + n[3]);
+}
+
+// Mean of `runs` runs of `one(start box)`, with the spread of their AUC.
+Row runFromStarts(const imt::test::BoxSequence& seq, int runs, const std::function<Row(const cv::Rect2d&)>& one) {
+  Row m;
+  for (int k = 0; k < runs; ++k) {
+    const Row r = one(nudged(seq.box(1), k));
+    m.auc += r.auc / runs;
+    m.iou += r.iou / runs;
+    m.p20 += r.p20 / runs;
+    m.fps += r.fps / runs;
+    m.auc_min = k == 0 ? r.auc : std::min(m.auc_min, r.auc);
+    m.auc_max = k == 0 ? r.auc : std::max(m.auc_max, r.auc);
+  }
+  return m;
 }
 
 // --trace: one line per frame of this package's run on stderr.
@@ -59,7 +89,7 @@ bool g_trace = false;
 // name=value (a region_tracking option, read as config YAML is).
 imt::Config g_config;
 
-Row runOurs(const imt::test::BoxSequence& seq, const std::vector<cv::Mat>& gray) {
+Row runOurs(const imt::test::BoxSequence& seq, const std::vector<cv::Mat>& gray, const cv::Rect2d& start) {
   imt::TrackingSession session(g_config.pipeline, imt::TrackingSession::Mode::kLive);
   uint32_t id = 0;
   return run(seq, gray, [&](int f, cv::Rect2d* box) {
@@ -68,7 +98,7 @@ Row runOurs(const imt::test::BoxSequence& seq, const std::vector<cv::Mat>& gray)
     std::string err;
     if (f == 1) {
       session.takeResults();
-      return session.addRegion(1, 0, seq.box(1), &id, &err);
+      return session.addRegion(1, 0, start, &id, &err);
     }
     for (const imt::FrameResult& r : session.takeResults())
       for (const imt::RegionState& s : r.regions)
@@ -87,10 +117,11 @@ Row runOurs(const imt::test::BoxSequence& seq, const std::vector<cv::Mat>& gray)
 }
 
 #ifdef IMT_HAVE_OPENCV_TRACKING
-Row runPeer(const imt::test::BoxSequence& seq, const std::vector<cv::Mat>& colour, cv::Ptr<cv::Tracker> t) {
+Row runPeer(const imt::test::BoxSequence& seq, const std::vector<cv::Mat>& colour, cv::Ptr<cv::Tracker> t,
+            const cv::Rect2d& start) {
   return run(seq, colour, [&](int f, cv::Rect2d* box) {
     if (f == 1) {
-      t->init(colour[0], cv::Rect(seq.box(1)));
+      t->init(colour[0], cv::Rect(start));
       return true;
     }
     cv::Rect r;
@@ -106,11 +137,15 @@ Row runPeer(const imt::test::BoxSequence& seq, const std::vector<cv::Mat>& colou
 int main(int argc, char** argv) {
   cv::setNumThreads(1);
   bool ours_only = false;
+  int starts = 1;
   std::set<std::string> only;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     if (a == "--ours-only") ours_only = true;
-    else if (a == "--no-appearance") g_config.pipeline.region_tracking.appearance = false;
+    else if (a == "--no-appearance") {
+      g_config.pipeline.region_tracking.appearance = false;
+      g_config.pipeline.region_tracking.region_features = 0;
+    }
     else if (a == "--set" && i + 1 < argc) {
       std::string kv = argv[++i], err;
       const size_t eq = kv.find('=');
@@ -121,6 +156,13 @@ int main(int argc, char** argv) {
       }
     }
     else if (a == "--trace") g_trace = ours_only = true;
+    else if (a == "--starts" && i + 1 < argc) {
+      starts = std::atoi(argv[++i]);
+      if (starts < 1) {
+        std::fprintf(stderr, "--starts: a count of runs, at least 1\n");
+        return 2;
+      }
+    }
     else only.insert(a);
   }
   const char* env = std::getenv("IMT_SHARED_DATA");
@@ -130,9 +172,11 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "no real sequences with box ground truth under %s\n", dir.c_str());
     return 1;
   }
-  std::printf("Region tracking on real video (%s), one thread, first frame's box given\n", dir.c_str());
-  std::printf("| sequence | tracker | frames | success AUC | mean IoU | P@20px | frames/s |\n");
-  std::printf("|---|---|---|---|---|---|---|\n");
+  std::printf("Region tracking on real video (%s), one thread, first frame's box given", dir.c_str());
+  if (starts > 1) std::printf(" (means of %d runs from it and nudged copies)", starts);
+  std::printf("\n| sequence | tracker | frames | success AUC |%s mean IoU | P@20px | frames/s |\n",
+              starts > 1 ? " AUC min..max |" : "");
+  std::printf("|---|---|---|---|%s---|---|---|\n", starts > 1 ? "---|" : "");
   std::map<std::string, std::vector<Row>> rows;  // tracker -> one row per sequence
   for (const imt::test::BoxSequence& seq : sequences) {
     if (!only.empty() && !only.count(seq.name())) continue;
@@ -146,29 +190,40 @@ int main(int argc, char** argv) {
       gray.push_back(seq.gray(f));
     }
     std::vector<std::pair<std::string, Row>> results;
-    results.emplace_back("instant_motion_tracking", runOurs(seq, gray));
+    results.emplace_back("instant_motion_tracking",
+                         runFromStarts(seq, starts, [&](const cv::Rect2d& b) { return runOurs(seq, gray, b); }));
 #ifdef IMT_HAVE_OPENCV_TRACKING
     if (!ours_only) {
-      results.emplace_back("OpenCV KCF", runPeer(seq, colour, cv::TrackerKCF::create()));
-      results.emplace_back("OpenCV CSRT", runPeer(seq, colour, cv::TrackerCSRT::create()));
+      results.emplace_back("OpenCV KCF", runFromStarts(seq, starts, [&](const cv::Rect2d& b) {
+                             return runPeer(seq, colour, cv::TrackerKCF::create(), b);
+                           }));
+      results.emplace_back("OpenCV CSRT", runFromStarts(seq, starts, [&](const cv::Rect2d& b) {
+                             return runPeer(seq, colour, cv::TrackerCSRT::create(), b);
+                           }));
     }
 #endif
     for (const auto& [name, r] : results) {
-      std::printf("| %s | %s | %d | %.3f | %.3f | %.3f | %.1f |\n", seq.name().c_str(), name.c_str(), seq.frames(),
-                  r.auc, r.iou, r.p20, r.fps);
+      std::printf("| %s | %s | %d | %.3f |", seq.name().c_str(), name.c_str(), seq.frames(), r.auc);
+      if (starts > 1) std::printf(" %.3f..%.3f |", r.auc_min, r.auc_max);
+      std::printf(" %.3f | %.3f | %.1f |\n", r.iou, r.p20, r.fps);
       std::fflush(stdout);
       rows[name].push_back(r);
     }
   }
   for (const auto& [name, v] : rows) {
     Row m;
+    m.auc_min = m.auc_max = 0;
     for (const Row& r : v) {
+      m.auc_min += r.auc_min / v.size();
+      m.auc_max += r.auc_max / v.size();
       m.auc += r.auc / v.size();
       m.iou += r.iou / v.size();
       m.p20 += r.p20 / v.size();
       m.fps += r.fps / v.size();
     }
-    std::printf("| **mean** | %s | | %.3f | %.3f | %.3f | %.1f |\n", name.c_str(), m.auc, m.iou, m.p20, m.fps);
+    std::printf("| **mean** | %s | | %.3f |", name.c_str(), m.auc);
+    if (starts > 1) std::printf(" %.3f..%.3f |", m.auc_min, m.auc_max);
+    std::printf(" %.3f | %.3f | %.1f |\n", m.iou, m.p20, m.fps);
   }
 #ifndef IMT_HAVE_OPENCV_TRACKING
   std::printf("(OpenCV tracking module not found: KCF/CSRT rows skipped; install libopencv-contrib-dev)\n");

@@ -144,6 +144,38 @@ TEST(RegionAppearance, LostRegionIsReacquiredNearAndFar) {
             RegionStatus::kLost);
 }
 
+// A region lost for long searches less often (each search is a template
+// match over 5 scales, 2.8 ms on the cards benchmark), but still comes back.
+TEST(RegionAppearance, LongLostRegionSearchesLessOftenButComesBack) {
+  const cv::Mat img = texture();
+  const cv::Rect2d box(100, 80, 60, 40);
+  const RegionTrackerOptions o;  // reacquire_interval 5
+  RegionTracker tracker(o, kSize);
+  RegionState lost = placed(tracker, img, box);
+  lost.status = RegionStatus::kLost;
+  lost.reason = "occluded";
+  const cv::Mat back = shifted(img, 30, 20);  // in plain view again, near its last place
+  // The frames of its search on which it is found when it is back in view,
+  // lost for n - 1 frames before.
+  auto foundOn = [&](int first_n, int frames) {
+    std::vector<int> found;
+    for (int n = first_n; n < first_n + frames; ++n) {
+      RegionState s = lost;
+      s.lost_frames = n - 1;
+      if (tracker.step(s, emptyMotion(0.033), Direction::kForward, 0, back).status == RegionStatus::kTracked)
+        found.push_back(n);
+    }
+    return found;
+  };
+  // Its first 2 intervals: on every frame.
+  EXPECT_EQ(foundOn(1, 10).size(), 10u);
+  // Up to 30 intervals (5 s at 30 frames/s): every interval.
+  EXPECT_EQ(foundOn(11, 20), (std::vector<int>{11, 16, 21, 26}));
+  // After that every 4 intervals: once in any 20 frames in a row.
+  EXPECT_EQ(foundOn(151, 20), (std::vector<int>{151}));
+  EXPECT_EQ(foundOn(300, 20).size(), 1u);
+}
+
 TEST(RegionOwnFeatures, CarryARegionTheMotionDataHasNoFeaturesIn) {
   const cv::Mat img = texture();
   const cv::Rect2d box(100, 80, 40, 32);  // small: tracked at full resolution

@@ -164,14 +164,13 @@ TEST(RegionFailureClass, SmallTargetAt720p) {
       "frames (goal %.2f)\n",
       b.width, b.height, t.size.width, t.size.height, t.start, iou, n, kGoal);
   EXPECT_GT(n, 200);
-  // Measured 0.475 (0.101 on motion data alone: the target gets no
-  // features, turns featureless and rides the camera motion; its look pulls
-  // it back until frame ~128, where it is lost, and finds it again later by
-  // its look at placement at the aspect it was taken at). Seeds 2-4: 0.484,
-  // 0.522, 0.596 (0.282, 0.325, 0.396 when the lost search used the latest
-  // look only). Floor 0.05 under. Goal 0.85: own features reach it (next
-  // test), but are off by default (real data, docs/benchmarks.md).
-  EXPECT_GE(iou, 0.42);
+  // Measured 0.836 (seeds 2-4: 0.750, 0.684, 0.711): the region tracks 6
+  // corners of its own inside the small box (region_features), which the
+  // motion analysis's uniform grid does not give it. Without them 0.475
+  // (0.484, 0.522, 0.596), and 0.101 on motion data alone (the target gets
+  // no features, turns featureless and rides the camera motion). Floor 0.05
+  // under. Goal 0.85: 24 own features reach it (next test).
+  EXPECT_GE(iou, 0.78);
 }
 
 // The same with each region tracking corners of its own (region_features):
@@ -185,8 +184,9 @@ TEST(RegionFailureClass, SmallTargetAt720pWithOwnFeatures) {
   const double iou = t.meanIou(0, static_cast<int>(t.truth.size()), &n);
   std::printf("region_small, own features: mean IoU %.3f over %d frames (goal %.2f)\n", iou, n, kGoal);
   EXPECT_GT(n, 200);
-  // Measured 0.887 (0.497 without them). Off by default all the same: on
-  // the real sequences they cost car1 0.036 and Human3 0.014 success AUC
+  // Measured 0.888 (seeds 2-4: 0.852, 0.895, 0.888), against 0.836 with the
+  // default 6. Not the default: on the real sequences 12 cost Human3 0.035
+  // success AUC (corners on the curb behind the walker's legs), 20 more
   // (docs/benchmarks.md). Floor 0.05 under.
   EXPECT_GE(iou, 0.83);
 }
@@ -284,15 +284,17 @@ TEST(RegionFailureClass, HiddenFor2sThenBack) {
   EXPECT_NEAR((hidden_to - hidden_from) / fps, 2.0, 0.2);
   EXPECT_GT(nb, 30);
   EXPECT_GT(na, 30);
-  // Measured before 0.830, after 0.913 (seeds 2-4: 0.879 / 0.917, 0.859 /
-  // 0.918, 0.887 / 0.902). The region is lost as it goes under (it no
-  // longer looks like itself) and found again by its look at placement over
-  // the whole frame, 1.1x larger, 6 frames after it is wholly back. Before
-  // the lost search tried the look at placement and a wider scale range it
-  // was found 20 frames later, or never (after 0.743; seeds 2-4: 0.000,
-  // 0.504, 0.140). Floors 0.05 under. Goal 0.85 each.
+  // Measured before 0.837, after 0.862 (seeds 2-4: 0.879 / 0.887, 0.859 /
+  // 0.863, 0.887 / 0.882). The region is lost as it goes under (it no
+  // longer looks like itself) and found again by its look 6 frames after it
+  // is wholly back, at its latest size (the target grew meanwhile: after
+  // 0.913 on seed 1 without the region's own features, where the whole-frame
+  // search found it 1.1x larger). Before the lost search tried the look at
+  // placement and a wider scale range it was found 20 frames later, or never
+  // (after 0.743; seeds 2-4: 0.000, 0.504, 0.140). Floors 0.05 under. Goal
+  // 0.85 each.
   EXPECT_GE(before, 0.78);
-  EXPECT_GE(again, 0.88);
+  EXPECT_GE(again, 0.81);
 }
 
 }  // namespace

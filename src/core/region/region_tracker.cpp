@@ -123,10 +123,8 @@ cv::Rect2d withAspect(const cv::Rect2d& b, double aspect) {
   return boxAt(centre(b), k * b.width, b.height / k);
 }
 
-// A region with at least this much support (inlier count) that loses its
-// features coasts on its own motion instead of following the background.
-constexpr double kMinSupportToCoast = 5;
-// ... when at least this fraction of its box is inside the image.
+// A region that loses its features coasts on its own motion (below) only
+// when at least this fraction of its box is inside the image.
 constexpr double kMinInsideToCoast = 0.75;
 
 // The usual interval between frames after a step of `interval` s that spans
@@ -147,6 +145,36 @@ double fractionInside(const cv::Rect2d& box, cv::Size size) {
 
 bool contains(const std::vector<uint32_t>& sorted, uint32_t id) {
   return std::binary_search(sorted.begin(), sorted.end(), id);
+}
+
+// The searches a region lost for `n` frames makes on that frame (interval
+// I = reacquire_interval): around its last place on every frame and over the
+// whole frame every I frames, for the first 2 I frames (an occluder passing,
+// a short turn away); then both every I frames up to 30 I (5 s at 30 frames/s
+// with I = 5), then every 4 I. A region lost for good thus costs a search
+// every 4 I frames, not every frame. `k` counts the whole-frame searches
+// (which look they use alternates with it). I = 0: around its last place on
+// every frame, never over the whole frame.
+struct LostSearch {
+  bool local = false, whole = false;
+  int k = 0;
+};
+LostSearch lostSearchAt(int n, int interval) {
+  LostSearch s;
+  if (interval <= 0) {
+    s.local = true;
+    return s;
+  }
+  const int i = interval, m = n - 1;
+  if (m < 30 * i) {
+    s.whole = m % i == 0;
+    s.local = n <= 2 * i || s.whole;
+    s.k = m / i;
+  } else {
+    s.whole = s.local = (m - 30 * i) % (4 * i) == 0;
+    s.k = 30 + (m - 30 * i) / (4 * i);
+  }
+  return s;
 }
 
 }  // namespace
@@ -263,17 +291,17 @@ RegionState RegionTracker::step(const RegionState& state, const MotionData& md, 
 void RegionTracker::reacquire(RegionState* next, const cv::Mat& image) const {
   const RegionTrackerOptions& o = options_;
   next->lost_frames += 1;
-  // Around its last place with its latest look, on every frame; over the
-  // whole frame every reacquire_interval frames, with its latest look and its
-  // look at placement in turn (the latest may have taken on what covered
-  // it), the look at placement also tried around its last place then. Its
-  // size changed unseen while it was lost: the wider scale range.
+  // Around its last place with its latest look; over the whole frame with
+  // its latest look and its look at placement in turn (the latest may have
+  // taken on what covered it), the look at placement also tried around its
+  // last place then. Its size changed unseen while it was lost: the wider
+  // scale range. When: lostSearchAt().
+  const LostSearch when = lostSearchAt(next->lost_frames, o.reacquire_interval);
+  if (!when.local) return;
   const auto& scales = RegionAppearance::lostScales();
   AppearanceMatch m = next->appearance.match(image, next->box, 1.0, scales);
-  const int k = o.reacquire_interval > 0 ? (next->lost_frames - 1) / o.reacquire_interval : 0;
-  const bool search_all = o.reacquire_interval > 0 && (next->lost_frames - 1) % o.reacquire_interval == 0;
-  if (search_all && (!m.found || m.score < o.reacquire_score)) {
-    const bool first = k % 2 == 1 && next->first_appearance.valid();
+  if (when.whole && (!m.found || m.score < o.reacquire_score)) {
+    const bool first = when.k % 2 == 1 && next->first_appearance.valid();
     // The look at placement, at the aspect it was taken at.
     const cv::Rect2d placed_box = withAspect(next->box, next->placed_aspect);
     if (first) {
@@ -468,7 +496,9 @@ RegionState RegionTracker::stepMotion(const RegionState& state, const MotionData
     // it coasts on its own motion like an occluded one rather than stopping
     // dead with the background. (Leaving the image takes the features along:
     // that is no reason to trust its last own motion.)
-    if (frac_inside >= kMinInsideToCoast && state.support >= kMinSupportToCoast) return coast();
+    // Its own motion was measured once min_features carried it (a small
+    // target's few features: a walker's 3 to 5 at 320 px).
+    if (frac_inside >= kMinInsideToCoast && state.support >= o.min_features) return coast();
     RegionState s = predictWithCamera(st);
     markLostIfFarOut(s);
     return s;
@@ -527,7 +557,7 @@ RegionState RegionTracker::stepMotion(const RegionState& state, const MotionData
   const double n_fit = static_cast<double>(inliers.size());
   // Support collapsed (most of the region hidden): a fit on the few
   // features left is not trusted either.
-  const bool supported = state.support >= kMinSupportToCoast;
+  const bool supported = state.support >= o.min_features;
   const bool collapsed = supported && n_fit < std::max<double>(o.min_features, 0.2 * state.support);
   if (collapsed || (supported && continued < o.occlusion_ratio * std::max(1.0, n_fit) && conflicting))
     return coast();

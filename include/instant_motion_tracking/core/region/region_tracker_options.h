@@ -34,7 +34,7 @@ struct RegionTrackerOptions {
       3.0;  // out of view farther than this many box sizes outside the image: lost
   double confidence_inliers = 20;
   int fallback_min_features = 10;
-  int region_features = 0;
+  int region_features = 6;
   int region_feature_px = 96;
   bool appearance = true;
   int appearance_size = 40;
@@ -83,7 +83,7 @@ struct RegionTrackerOptions {
       "plus their median residual (the translation)");
     v("region_features", region_features,
       "features each region is given at least inside its box: corners of its own tracked besides the motion "
-      "analysis's, as many as the motion analysis falls short of this (0 = none)");
+      "analysis's, as many as the motion analysis falls short of this (0 = none; 6 = enough to measure its scale)");
     v("region_feature_px", region_feature_px,
       "px; its own features are tracked at full resolution in boxes up to this size, larger boxes downscaled to it");
     v("appearance", appearance,
@@ -106,7 +106,7 @@ struct RegionTrackerOptions {
       "consecutive such frames after which the region is lost (0 = never)");
     v("reacquire_score", reacquire_score, "correlation at which a lost region is found again");
     v("reacquire_interval", reacquire_interval,
-      "frames between whole-frame searches for a lost region (around its last place: every frame)");
+      "frames between a lost region's whole-frame searches (around its last place: every frame for the first 2 intervals, then with them); after 30 intervals, 4 times as many (0 = around its last place on every frame only)");
   }
   std::string validate() const;
   // The tracker reads the frames' images (own features or appearance).

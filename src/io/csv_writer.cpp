@@ -174,12 +174,13 @@ CsvRow planarTargetRow(const PlanarTargetState& s) {
 }
 
 CsvRow anchorRow(double stamp, uint32_t id, const cv::Point2d& uv, const Eigen::Isometry3d& T_cam_anchor,
-                 const std::string& status, bool has_estimate) {
+                 const std::string& status, bool has_estimate, bool has_rotation) {
   CsvRow row;
   row.stamp(stamp).integer(id);
   const Eigen::Vector3d t = T_cam_anchor.translation();
   const Eigen::Quaterniond q(T_cam_anchor.linear());
-  for (double v : {uv.x, uv.y, t.x(), t.y(), t.z(), q.x(), q.y(), q.z(), q.w()}) row.number(has_estimate ? v : NAN);
+  for (double v : {uv.x, uv.y, t.x(), t.y(), t.z()}) row.number(has_estimate ? v : NAN);
+  for (double v : {q.x(), q.y(), q.z(), q.w()}) row.number(has_estimate && has_rotation ? v : NAN);
   return row.text(status);
 }
 

@@ -19,7 +19,7 @@ void AnchorNodelet::onInit() {
   markers_pub_ = nh.advertise<visualization_msgs::MarkerArray>("markers", 10, cb, cb);
   add_srv_ = nh.advertiseService("add_anchor", &AnchorNodelet::addCb, this);
   remove_srv_ = nh.advertiseService("remove_anchor", &AnchorNodelet::removeCb, this);
-  startSession("camera_info", nh.resolveName("motion_data"), "anchors", {"tracked", "out_of_view", "no_imu", "lost"});
+  startSession("camera_info", nh.resolveName("motion_data"), "anchors", {"tracked", "out_of_view", "no_imu", "lost", "calibrating"});
 }
 
 bool AnchorNodelet::wantsFrames() {
@@ -45,7 +45,10 @@ void AnchorNodelet::subscribeInputs(bool wanted) {
 void AnchorNodelet::lookupRotation(TrackingSession& s, const std::string& imu_frame) {
   const bool new_frame = imu_frame != imu_frame_;
   imu_frame_ = imu_frame;
-  if (s.rotationFromOptions() || camera_frame_.empty() || (s.rotationCamImu() && !new_frame)) return;
+  // tf is looked up until it answers, and again when the IMU's frame changes
+  // (the video's own estimate does not stop it: tf is the user's word).
+  const bool from_tf = s.rotationSource() == AnchorManager::RotationSource::kTf;
+  if (s.rotationFromOptions() || camera_frame_.empty() || (from_tf && !new_frame)) return;
   if (imu_frame.empty() || imu_frame == camera_frame_) {
     s.setRotationCamImu(Eigen::Quaterniond::Identity());
     return;
@@ -64,8 +67,11 @@ void AnchorNodelet::lookupRotation(TrackingSession& s, const std::string& imu_fr
   } catch (const tf2::TransformException& e) {
     why = e.what();
   }
-  NODELET_WARN_THROTTLE(10.0, "no tf %s <- %s yet (%s); assuming the IMU axes are the camera's until it comes",
-                        camera_frame_.c_str(), imu_frame.c_str(), why.c_str());
+  NODELET_WARN_THROTTLE(10.0,
+                        "no tf %s <- %s yet (%s); the IMU-to-camera rotation is estimated from the video until it "
+                        "comes (%s; anchors are calibrating until then)",
+                        camera_frame_.c_str(), imu_frame.c_str(), why.c_str(),
+                        s.rotationSource() == AnchorManager::RotationSource::kVideo ? "found" : "not yet");
 }
 
 void AnchorNodelet::imuCb(const sensor_msgs::ImuConstPtr& msg) {
@@ -75,11 +81,14 @@ void AnchorNodelet::imuCb(const sensor_msgs::ImuConstPtr& msg) {
     NODELET_WARN_THROTTLE(5.0, "dropping IMU sample: %s", why.c_str());
     return;
   }
+  std::string disagreement;
   const ImuInput r = session([&](TrackingSession& s) {
     imu_seen_ = true;
     lookupRotation(s, msg->header.frame_id);
+    disagreement = s.rotationDisagreement();
     return s.addImu(sample, &why);
   });
+  if (!disagreement.empty()) NODELET_WARN_THROTTLE(30.0, "%s", disagreement.c_str());
   switch (r) {
     case ImuInput::kAccepted:
       break;
@@ -110,6 +119,12 @@ void AnchorNodelet::onResult(const FrameResult& r, const std_msgs::Header& heade
                           where.c_str());
     break;
   }
+  for (const AnchorState& s : r.anchors) {
+    if (s.status != AnchorStatus::kCalibrating) continue;
+    NODELET_WARN_THROTTLE(10.0, "anchors are translation-only (status calibrating): %s", s.reason.c_str());
+    break;
+  }
+
   if (anchors_pub_.getNumSubscribers() > 0) anchors_pub_.publish(toMsg(r.anchors, header));
   if (config_.ros.publish_tf && !r.anchors.empty() && !fromBeforeTimeJump(header.stamp)) {
     const auto transforms = anchorTransforms(r.anchors, header, config_.ros.frame_prefix);

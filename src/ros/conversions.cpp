@@ -398,7 +398,7 @@ AnchorState fromMsg(const instant_motion_tracking::Anchor& m, double stamp) {
   s.T_cam_anchor = fromPoseMsg(m.pose);
   s.status = statusFromName(m.status, anchorStatusName,
                             {AnchorStatus::kTracked, AnchorStatus::kOutOfView, AnchorStatus::kNoImu,
-                             AnchorStatus::kLost},
+                             AnchorStatus::kLost, AnchorStatus::kCalibrating},
                             AnchorStatus::kLost);
   s.confidence = m.confidence;
   return s;

@@ -343,7 +343,7 @@ class TrackBagRun {
       if (!targets_csv_.write(imt::planarTargetRow(s), &err)) fail(err);
     for (const imt::AnchorState& a : r.anchors)
       if (!anchors_csv_.write(imt::anchorRow(f.stamp, a.id, a.pixel, a.T_cam_anchor, imt::anchorStatusName(a.status),
-                                             a.hasEstimate()),
+                                             a.hasEstimate(), a.status != imt::AnchorStatus::kCalibrating),
                               &err))
         fail(err);
     if (!out_bag_) return;
@@ -393,8 +393,16 @@ class TrackBagRun {
       notes_.warn("the IMU orientation dropped " + std::to_string(dropped) + " sample(s) (NaN or out of order)");
     if (const int restarts = imu_outcomes_[imt::ImuInput::kReset])
       notes_.warn("the IMU orientation restarted " + std::to_string(restarts) + " time(s) (IMU time jumped back)");
-    if (!input_.imuTopic().empty() && !session_->rotationCamImu())
-      notes_.note("IMU-to-camera rotation unknown: " + tf_why_);
+    using Source = imt::AnchorManager::RotationSource;
+    if (!input_.imuTopic().empty() && session_->rotationSource() == Source::kNone)
+      notes_.warn("IMU-to-camera rotation unknown (" + tf_why_ +
+                  ") and not found from the video (it needs turns about two axes): anchors are calibrating "
+                  "(translation only)");
+    if (session_->rotationSource() == Source::kVideo)
+      notes_.note("IMU-to-camera rotation estimated from the video (no tf: " + tf_why_ +
+                  "); anchors are calibrating until the frame it was found at");
+    const std::string disagreement = session_->rotationDisagreement();
+    if (!disagreement.empty()) notes_.warn(disagreement);
     for (const std::string& m : libraryLog().messages) notes_.warn(m);
   }
 
@@ -432,6 +440,7 @@ class TrackBagRun {
     d["image_frame"] = input_.imageFrameId();
     d["imu_frame"] = orNull(imu_frame_);
     d["R_cam_imu"] = nullptr;
+    d["R_cam_imu_source"] = imt::AnchorManager::rotationSourceName(session_->rotationSource());
     if (const auto q = session_->rotationCamImu()) {
       const Eigen::Matrix3d R = q->toRotationMatrix();
       d["R_cam_imu"] = {{R(0, 0), R(0, 1), R(0, 2)}, {R(1, 0), R(1, 1), R(1, 2)},

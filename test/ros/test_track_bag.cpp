@@ -134,6 +134,7 @@ TEST_F(TrackBag, InitEntriesAtAnyFrameOutBagAndRotationFromTfStatic) {
   // only float rounding of sin/cos(pi/4) and the quaternion -> matrix.
   const double expected[3][3] = {{0, -1, 0}, {1, 0, 0}, {0, 0, 1}};
   ASSERT_TRUE(j["R_cam_imu"].is_array()) << j.dump();
+  EXPECT_EQ(j["R_cam_imu_source"], "tf");
   for (int a = 0; a < 3; ++a)
     for (int b = 0; b < 3; ++b)
       EXPECT_NEAR(j["R_cam_imu"][a][b].get<double>(), expected[a][b], 1e-9) << a << "," << b;
@@ -267,12 +268,14 @@ TEST_F(TrackBag, NoCameraInfoNoTfAndNanImuAreNotedOnce) {
             (std::vector<std::string>{
                 "track_bag: note: no camera_info topic; intrinsics from default_hfov_deg 60 deg",
                 "track_bag: warning: dropped 3 IMU sample(s) with NaN/Inf values (first at stamp 1000.000000)",
-                "track_bag: note: IMU-to-camera rotation unknown: no transform between 'cam_optical' and "
-                "'imu_link' in the bag (it has no /tf_static or /tf)"}));
+                "track_bag: warning: IMU-to-camera rotation unknown (no transform between 'cam_optical' and "
+                "'imu_link' in the bag (it has no /tf_static or /tf)) and not found from the video (it needs "
+                "turns about two axes): anchors are calibrating (translation only)"}));
   const nlohmann::json j = nlohmann::json::parse(readFile(out + "/summary.json"));
   EXPECT_EQ(j["imu_samples"], 7 * spec.frames - 3);
   EXPECT_EQ(j["imu_dropped"], 3);
   EXPECT_TRUE(j["R_cam_imu"].is_null());
+  EXPECT_EQ(j["R_cam_imu_source"], "none");
   EXPECT_TRUE(j["camera_info_topic"].is_null());
   EXPECT_EQ(j["intrinsics"]["source"], "field_of_view");
 }

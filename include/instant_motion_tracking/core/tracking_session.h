@@ -86,9 +86,13 @@ class TrackingSession {
   // fixes it or q is not a rotation.
   bool setRotationCamImu(const Eigen::Quaterniond& q_cam_imu);
   bool rotationFromOptions() const { return anchors_->rotationFromOptions(); }
-  // The IMU -> camera rotation in use (the option's, or tf's once given); none
-  // while unknown (the IMU axes are then taken for the camera's).
+  // The IMU -> camera rotation in use (the option's, tf's once given, or the
+  // video's once it showed it); none while unknown (anchors `calibrating`),
+  // and where it came from.
   const std::optional<Eigen::Quaterniond>& rotationCamImu() const { return anchors_->imu().rotationCamImu(); }
+  AnchorManager::RotationSource rotationSource() const { return anchors_->rotationSource(); }
+  // "" or a message: tf (or the option) and the video disagree on that rotation.
+  std::string rotationDisagreement() const { return anchors_->rotationDisagreement(); }
   // An IMU sample, in stamp order (see AnchorManager::addImu for the outcomes).
   // Frames waiting for it may become ready: takeResults() afterwards.
   ImuInput addImu(const ImuSample& s, std::string* why = nullptr);

@@ -88,8 +88,9 @@ CsvRow cameraMotionRow(const MotionData& md);
 CsvRow regionRow(const RegionState& s);
 // One planar_targets.csv row (every estimate column empty when lost).
 CsvRow planarTargetRow(const PlanarTargetState& s);
-// One anchors.csv row; the estimate columns are empty when `has_estimate` is false.
+// One anchors.csv row; the estimate columns are empty when `has_estimate` is
+// false, the rotation's (qx..qw) also when `has_rotation` is (calibrating).
 CsvRow anchorRow(double stamp, uint32_t id, const cv::Point2d& uv, const Eigen::Isometry3d& T_cam_anchor,
-                 const std::string& status, bool has_estimate);
+                 const std::string& status, bool has_estimate, bool has_rotation = true);
 
 }  // namespace imt

@@ -4,6 +4,7 @@
 #include "option_checker.h"
 
 #include <algorithm>
+#include <limits>
 #include <cmath>
 #include <sstream>
 
@@ -34,8 +35,20 @@ const char* anchorStatusName(AnchorStatus s) {
       return "no_imu";
     case AnchorStatus::kLost:
       return "lost";
+    case AnchorStatus::kCalibrating:
+      return "calibrating";
   }
   return "lost";
+}
+
+const char* AnchorManager::rotationSourceName(RotationSource s) {
+  switch (s) {
+    case RotationSource::kOptions: return "options";
+    case RotationSource::kTf: return "tf";
+    case RotationSource::kVideo: return "video";
+    case RotationSource::kNone: break;
+  }
+  return "none";
 }
 
 bool AnchorOptions::rotationCamImu(Eigen::Quaterniond* q) const {
@@ -73,14 +86,25 @@ AnchorManager::AnchorManager(const AnchorOptions& options, const ImuOptions& imu
       regions_(regions),
       imu_(imu_options) {
   Eigen::Quaterniond q;
-  if (options_.rotationCamImu(&q)) rotation_fixed_ = imu_.setRotationCamImu(q);
+  if (options_.rotationCamImu(&q)) useRotation(q, RotationSource::kOptions);
   // Frames without a usable camera model (blur, a featureless view): the
   // regions, the anchors' among them, move by the IMU rotation instead.
   // Through a distorting lens that motion is no homography between image
   // pixels; the region manager takes one, so it gets the best fit over the
-  // image (CameraModel::imageHomography; see imu_orientation.h).
+  // image (CameraModel::imageHomography; see imu_orientation.h). Not while
+  // the IMU -> camera rotation is unknown at t.
   regions_->setCameraFallback([this](double t_prev, double t, Eigen::Matrix3d* H) {
-    return imu_.rotationHomography(intrinsics(), t_prev, t, H);
+    const Eigen::Quaterniond* q = rotationAt(t);
+    Eigen::Matrix3d A, B;
+    if (!q || !imu_.R_world_imu(t_prev, &A) || !imu_.R_world_imu(t, &B)) return false;
+    const Eigen::Matrix3d R_ci = q->toRotationMatrix();
+    // x_t ~ K R_cam(t)_cam(t_prev) K^-1 x_prev.
+    const Eigen::Matrix3d R = R_ci * (B.transpose() * A) * R_ci.transpose();
+    const CameraModel k = intrinsics();
+    const Eigen::Matrix3d h = k.K() * R * k.K().inverse();
+    if (!h.allFinite() || !(std::abs(h(2, 2)) > 1e-12)) return false;
+    *H = k.imageHomography(h / h(2, 2));
+    return true;
   });
 }
 
@@ -92,8 +116,46 @@ CameraModel AnchorManager::intrinsics() const {
 }
 
 bool AnchorManager::setRotationCamImu(const Eigen::Quaterniond& q_cam_imu) {
-  if (rotation_fixed_) return false;
-  return imu_.setRotationCamImu(q_cam_imu);
+  if (rotation_source_ == RotationSource::kOptions) return false;
+  return useRotation(q_cam_imu, RotationSource::kTf);
+}
+
+bool AnchorManager::useRotation(const Eigen::Quaterniond& q, RotationSource source) {
+  if (!imu_.setRotationCamImu(q)) return false;
+  const Eigen::Quaterniond unit = *imu_.rotationCamImu();
+  if (source == RotationSource::kVideo) {
+    // From the frame whose turn completed the estimate on: the frames before
+    // it keep what they had (live and offline alike).
+    rotations_.emplace_back(video_from_, unit);
+  } else {
+    // Given (options, tf): the rig's rotation, for every frame.
+    rotations_.assign(1, {-std::numeric_limits<double>::infinity(), unit});
+  }
+  rotation_source_ = source;
+  return true;
+}
+
+const Eigen::Quaterniond* AnchorManager::rotationAt(double t) const {
+  const Eigen::Quaterniond* q = nullptr;
+  for (const auto& [from, r] : rotations_)
+    if (from <= t) q = &r;
+  return q;
+}
+
+std::string AnchorManager::rotationDisagreement() const {
+  const auto video = video_rotation_.estimate();
+  if (!video || rotations_.empty() || rotation_source_ == RotationSource::kVideo ||
+      rotation_source_ == RotationSource::kNone)
+    return "";
+  const Eigen::Quaterniond& used = rotations_.back().second;
+  const double deg = used.angularDistance(*video) * 180 / M_PI;
+  if (!(deg > kRotationDisagreementDeg)) return "";
+  auto str = [](const Eigen::Quaterniond& q) {
+    return "[" + num(q.x()) + " " + num(q.y()) + " " + num(q.z()) + " " + num(q.w()) + "]";
+  };
+  return std::string("the IMU-to-camera rotation from ") + rotationSourceName(rotation_source_) + " (qx qy qz qw " +
+         str(used) + ") and the one the video shows (" + str(*video) + ") differ by " + num(deg) +
+         " deg: check the IMU's frame_id and the tf between it and the camera's optical frame";
 }
 
 ImuInput AnchorManager::addImu(const ImuSample& s, std::string* why) {
@@ -117,17 +179,57 @@ ImuInput AnchorManager::addImu(const ImuSample& s, std::string* why) {
 
 void AnchorManager::resetImu() {
   imu_.reset();
-  for (auto& [id, a] : anchors_) unbind(a);
+  turns_.clear();
+  for (auto& [id, a] : anchors_) a.bound = false;
 }
 
 void AnchorManager::update() {
-  if (!regions_->lastReset().empty()) anchors_.clear();  // the region manager dropped their regions
+  if (!regions_->lastReset().empty()) {
+    anchors_.clear();  // the region manager dropped their regions
+    turns_.clear();
+  }
+  // The newest frame's camera motion, read as a turn of the camera.
+  const MotionCache& cache = regions_->cache();
+  if (cache.size() >= 2) {
+    const MotionData& md = cache.at(cache.lastSeq());
+    const double t0 = cache.at(cache.lastSeq() - 1).stamp;
+    const CameraModel k = intrinsics();
+    Eigen::Matrix3d R_c1c0;
+    double rms = 0;
+    if (md.camera.model != MotionModel::kInvalid && rotationFromHomography(k, md.camera.H, &R_c1c0, &rms)) {
+      const Eigen::AngleAxisd turn(R_c1c0.transpose());  // camera at t1 in the camera at t0
+      // A turn explains the motion when what it leaves is under a tenth of it
+      // (or half a pixel): else the camera moved too (near scene) or the
+      // background was not what moved.
+      if (rms <= std::max(0.5, 0.1 * k.fx * turn.angle()))
+        turns_.push_back({t0, md.stamp, turn.angle() * turn.axis()});
+    }
+  }
+  readTurns();
 }
 
-void AnchorManager::unbind(Anchor& a) const {
-  a.bound = false;
-  a.R_world_cam0 = kImageUpStandIn;
-  a.R_world_anchor = anchorOrientation(kImageUpStandIn);
+void AnchorManager::readTurns() {
+  // The gyro's turn over each interval it covers now; the video's turns
+  // wait for it (live, the IMU may lag the frames).
+  while (!turns_.empty() && !imu_.empty() && turns_.front().t1 <= imu_.newestStamp()) {
+    const Turn t = turns_.front();
+    turns_.pop_front();
+    Eigen::Matrix3d A, B;
+    if (!imu_.R_world_imu(t.t0, &A) || !imu_.R_world_imu(t.t1, &B)) continue;  // before the IMU began, or a gap
+    const Eigen::AngleAxisd gyro(A.transpose() * B);  // the IMU at t1 in the IMU at t0
+    video_rotation_.add(t.theta_cam, gyro.angle() * gyro.axis());
+    const auto estimate = video_rotation_.estimate();
+    if (!estimate) continue;
+    const bool first = rotation_source_ == RotationSource::kNone;
+    const bool moved = rotation_source_ == RotationSource::kVideo &&
+                       rotations_.back().second.angularDistance(*estimate) * 180 / M_PI > kRotationUpdateDeg;
+    if (first || moved) {
+      video_from_ = t.t1;
+      useRotation(*estimate, RotationSource::kVideo);
+    }
+  }
+  // Bounded: turns the gyro never covers (an IMU that stopped) are dropped.
+  while (turns_.size() > kMaxWaitingTurns) turns_.pop_front();
 }
 
 // The world orientation of the anchor: from the IMU at placement, or, when
@@ -135,12 +237,11 @@ void AnchorManager::unbind(Anchor& a) const {
 void AnchorManager::tryBind(Anchor& a, double stamp) {
   if (a.bound || imu_.empty()) return;
   Eigen::Matrix3d R;
-  if (!imu_.R_world_cam(a.stamp, &R)) {
-    if (!(a.stamp < imu_.oldestStamp() && imu_.R_world_cam(stamp, &R))) return;
+  if (!imu_.R_world_imu(a.stamp, &R)) {
+    if (!(a.stamp < imu_.oldestStamp() && imu_.R_world_imu(stamp, &R))) return;
   }
   a.bound = true;
-  a.R_world_cam0 = R;
-  a.R_world_anchor = anchorOrientation(R);
+  a.R_world_imu0 = R;
 }
 
 bool AnchorManager::add(uint32_t id, double stamp, const cv::Point2d& uv, double depth,
@@ -200,7 +301,6 @@ bool AnchorManager::add(uint32_t id, double stamp, const cv::Point2d& uv, double
     return false;
   }
   a.region_id = region_id;
-  unbind(a);
   tryBind(a, a.stamp);
   anchors_[id] = a;
   *assigned_id = id;
@@ -232,22 +332,29 @@ AnchorState AnchorManager::stateOf(Anchor& a, const RegionState& r, double stamp
   s.stamp = stamp;
   s.pixel = cv::Point2d(r.box.x + r.box.width / 2, r.box.y + r.box.height / 2);
   s.confidence = r.status == RegionStatus::kLost ? 0.0 : r.confidence;
-  Eigen::Matrix3d R_wc = a.R_world_cam0;
-  const bool imu_ok = a.bound && imu_.R_world_cam(stamp, &R_wc);
-  if (!imu_ok) R_wc = a.R_world_cam0;
+  // The camera in the world at binding and now, through the IMU -> camera
+  // rotation in use at this frame; without the IMU or the rotation, the
+  // image's up stands in for the world's (orientation relative to placement).
+  const Eigen::Quaterniond* q = rotationAt(stamp);
+  Eigen::Matrix3d R_wi;
+  const bool imu_ok = a.bound && imu_.R_world_imu(stamp, &R_wi);
+  const bool oriented = imu_ok && q;
+  const Eigen::Matrix3d R_ic = q ? Eigen::Matrix3d(q->toRotationMatrix().transpose()) : Eigen::Matrix3d::Identity();
+  const Eigen::Matrix3d R_world_cam0 = oriented ? Eigen::Matrix3d(a.R_world_imu0 * R_ic) : kImageUpStandIn;
+  const Eigen::Matrix3d R_wc = oriented ? Eigen::Matrix3d(R_wi * R_ic) : R_world_cam0;
   const bool estimate = r.status != RegionStatus::kLost && r.box.width > 0;
   double scale_ratio = 1.0;
   if (estimate) {
     // The surface's normal (world up) in the camera at placement and now,
     // when the IMU gives both; else the patch is taken as facing the camera.
     const CameraModel K = intrinsics();
-    const bool tilt = options_.surface == "horizontal" && a.bound && imu_ok;
-    const Eigen::Vector3d up0 = a.R_world_cam0.transpose() * Eigen::Vector3d::UnitZ();
+    const bool tilt = options_.surface == "horizontal" && oriented;
+    const Eigen::Vector3d up0 = R_world_cam0.transpose() * Eigen::Vector3d::UnitZ();
     const Eigen::Vector3d up = R_wc.transpose() * Eigen::Vector3d::UnitZ();
     scale_ratio = a.side / r.box.width * patchSizeFactor(s.pixel, K, tilt ? &up : nullptr) /
                   patchSizeFactor(a.uv0, K, tilt ? &up0 : nullptr);
   }
-  s.T_cam_anchor = anchorPose(s.pixel, scale_ratio, a.depth, intrinsics(), R_wc, a.R_world_anchor);
+  s.T_cam_anchor = anchorPose(s.pixel, scale_ratio, a.depth, intrinsics(), R_wc, anchorOrientation(R_world_cam0));
   if (!estimate) {
     s.status = AnchorStatus::kLost;
     s.reason = r.reason.empty() ? "its region is lost" : "region lost: " + r.reason;
@@ -260,6 +367,11 @@ AnchorState AnchorManager::stateOf(Anchor& a, const RegionState& r, double stamp
     else
       s.reason = "no IMU orientation at stamp " + num(stamp) + " (IMU spans " +
                  num(imu_.oldestStamp()) + " .. " + num(imu_.newestStamp()) + ")";
+  } else if (!q) {
+    s.status = AnchorStatus::kCalibrating;
+    s.reason = "the IMU-to-camera rotation is not known yet: no tf between the IMU and the camera, no "
+               "anchors.rotation_cam_imu, and the video has not shown enough turns about two axes (" +
+               std::to_string(video_rotation_.pairs()) + " turns so far)";
   } else {
     s.status =
         r.status == RegionStatus::kOutOfView ? AnchorStatus::kOutOfView : AnchorStatus::kTracked;

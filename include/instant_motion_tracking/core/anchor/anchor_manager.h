@@ -25,6 +25,16 @@
 // placed before any IMU sample covers its frame takes its world orientation
 // ("x = levelled viewing direction") from the first frame the IMU covers.
 //
+// The IMU-to-camera rotation comes from anchors.rotation_cam_imu, else from
+// tf (setRotationCamImu), else from the video itself: each frame's camera
+// motion, read as a turn, against the gyro's turn between the same stamps
+// (CamImuRotationEstimator; needs turns about two axes). Until one of them
+// gives it the anchors are `calibrating`: translation only, as no_imu. When
+// the rotation changes (tf arrives, the video's estimate moves by more than
+// kRotationUpdateDeg) the anchors re-take their world orientation with it.
+// The video's estimate is kept up also when tf gives the rotation, to check
+// it (rotationDisagreement()).
+//
 // Usage (live):
 //   imt::RegionManager regions(o.region_tracking, o.cache_seconds);
 //   imt::AnchorManager anchors(o.anchors, o.imu, o.default_hfov_deg, &regions);
@@ -37,6 +47,7 @@
 // Threading: not thread-safe; callers serialise (the nodelet holds a mutex).
 #pragma once
 
+#include "instant_motion_tracking/core/anchor/cam_imu_rotation.h"
 #include "instant_motion_tracking/core/anchor/imu_orientation.h"
 #include "instant_motion_tracking/core/region/region_manager.h"
 #include "instant_motion_tracking/core/types.h"
@@ -46,14 +57,15 @@
 #include <opencv2/core.hpp>
 
 #include <cstdint>
+#include <deque>
 #include <map>
 #include <string>
 #include <vector>
 
 namespace imt {
 
-enum class AnchorStatus : uint8_t { kTracked, kOutOfView, kNoImu, kLost };
-// "tracked", "out_of_view", "no_imu", "lost" (the CSV and message spelling).
+enum class AnchorStatus : uint8_t { kTracked, kOutOfView, kNoImu, kLost, kCalibrating };
+// "tracked", "out_of_view", "no_imu", "lost", "calibrating" (the CSV and message spelling).
 const char* anchorStatusName(AnchorStatus s);
 
 // One anchor at one frame.
@@ -66,9 +78,11 @@ struct AnchorState {
   Eigen::Isometry3d T_cam_anchor = Eigen::Isometry3d::Identity();
   AnchorStatus status = AnchorStatus::kTracked;
   double confidence = 0;  // 0 .. 1 (the region's; 0 when lost)
-  std::string reason;     // why no_imu or lost (empty otherwise)
+  std::string reason;     // why no_imu, calibrating or lost (empty otherwise)
 
   bool hasEstimate() const { return status != AnchorStatus::kLost; }
+  // Whether the orientation is the world's (else the one at placement, relative to the camera).
+  bool hasOrientation() const { return status == AnchorStatus::kTracked || status == AnchorStatus::kOutOfView; }
 };
 
 // What became of an IMU sample given to AnchorManager::addImu().
@@ -97,7 +111,18 @@ class AnchorManager {
   // IMU -> camera rotation (from tf2); ignored (false) when the options fix it
   // or when q is not a usable rotation.
   bool setRotationCamImu(const Eigen::Quaterniond& q_cam_imu);
-  bool rotationFromOptions() const { return rotation_fixed_; }
+  bool rotationFromOptions() const { return rotation_source_ == RotationSource::kOptions; }
+  // Where the IMU -> camera rotation in use came from.
+  enum class RotationSource { kNone, kOptions, kTf, kVideo };
+  RotationSource rotationSource() const { return rotation_source_; }
+  static const char* rotationSourceName(RotationSource s);  // "none", "options", "tf", "video"
+  // The video's own estimate (also when another source gives the rotation).
+  const CamImuRotationEstimator& videoRotation() const { return video_rotation_; }
+  // "" or, when the rotation in use (options or tf) and the video's estimate
+  // differ by more than kRotationDisagreementDeg, a message naming both.
+  std::string rotationDisagreement() const;
+  static constexpr double kRotationUpdateDeg = 0.2;
+  static constexpr double kRotationDisagreementDeg = 5.0;
   // Appends an IMU sample (stamp order). kDropped with *why for NaN values or
   // a stamp not after the previous one; kReset when the stamp is more than
   // imu_reset_seconds behind the newest (a bag loop): the orientation
@@ -109,7 +134,8 @@ class AnchorManager {
   // world orientation from the next frame the IMU covers.
   void resetImu();
 
-  // After every RegionManager::update(): clears the anchors when it reset.
+  // After every RegionManager::update(): clears the anchors when it reset,
+  // and reads the new frame's turn for the video's IMU -> camera rotation.
   void update();
 
   // Places an anchor at the pixel `uv` (our pixel convention) of the frame
@@ -144,20 +170,35 @@ class AnchorManager {
     double depth = 1.0;  // m along the tap's ray at placement
     double side = 0;     // px, initial region side
     cv::Point2d uv0;     // px, the tapped pixel
-    bool bound = false;  // R_world_anchor known from the IMU
-    Eigen::Matrix3d R_world_anchor = Eigen::Matrix3d::Identity();
-    // The camera at binding (or the image-up stand-in).
-    Eigen::Matrix3d R_world_cam0 = Eigen::Matrix3d::Identity();
+    bool bound = false;  // the IMU's orientation at placement known
+    // The IMU at binding (the camera's follows with the rotation in use).
+    Eigen::Matrix3d R_world_imu0 = Eigen::Matrix3d::Identity();
   };
-  void unbind(Anchor& a) const;
   void tryBind(Anchor& a, double stamp);
   AnchorState stateOf(Anchor& a, const RegionState& r, double stamp);
+  // The rotation in use becomes `q` from `source`: the anchors re-take their
+  // world orientation with it.
+  bool useRotation(const Eigen::Quaterniond& q, RotationSource source);
+  // The video's turns waiting for the gyro to cover them, and the estimate
+  // fed with those it does.
+  void readTurns();
 
   AnchorOptions options_;
   double default_hfov_deg_;
   RegionManager* regions_;
   ImuOrientation imu_;
-  bool rotation_fixed_ = false;
+  RotationSource rotation_source_ = RotationSource::kNone;
+  CamImuRotationEstimator video_rotation_;
+  struct Turn {
+    double t0 = 0, t1 = 0;
+    Eigen::Vector3d theta_cam = Eigen::Vector3d::Zero();  // the camera's turn from t0 to t1 (rotation vector)
+  };
+  std::deque<Turn> turns_;
+  static constexpr size_t kMaxWaitingTurns = 300;
+  // The rotations in use, each from a stamp on (given ones: from -inf).
+  std::vector<std::pair<double, Eigen::Quaterniond>> rotations_;
+  double video_from_ = 0;  // the stamp the video's next estimate applies from
+  const Eigen::Quaterniond* rotationAt(double t) const;  // nullptr: none at t
   CameraModel info_;
   std::map<uint32_t, Anchor> anchors_;
   uint32_t next_region_id_ = kAnchorRegionBase;

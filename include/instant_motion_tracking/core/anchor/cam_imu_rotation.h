@@ -1,0 +1,85 @@
+// The IMU-to-camera rotation found from the video (issue 14, calibration-free
+// anchors without /tf_static).
+//
+// Between two frames the camera turns by one rotation, which the camera sees
+// in the background's motion and the gyro measures in its own axes. Their
+// rotation vectors are the same vector in two frames:
+//   theta_cam = R_cam_imu theta_imu.
+// Pairs over at least two rotation axes fix R_cam_imu: the rotation that best
+// maps the gyro's vectors onto the camera's (orthogonal Procrustes: SVD of
+// sum theta_cam theta_imu^T, as Eigen::umeyama does for points).
+//
+// A camera rotation comes from a frame's camera motion H (image pixels,
+// previous -> current) by rotationFromHomography(): rays through a grid of
+// pixels and through their images under H, aligned by a rotation. H is
+// explained by a rotation only when the camera turned more than it moved
+// (or the scene is far); a frame whose rays do not fit one rotation is not
+// used. The focal length comes from camera_info, or from default_hfov_deg
+// without it: a focal length off by k% scales the visual rotation about x
+// and y by about k% while the rotation about z stays, which tilts the
+// estimate's axes by up to ~k/2% of a radian (under 3 deg for 10%).
+//
+// Usage:
+//   imt::CamImuRotationEstimator est;
+//   Eigen::Matrix3d R_c2c1; double rms;
+//   if (imt::rotationFromHomography(K, H, &R_c2c1, &rms)) est.add(log(R_c2c1^T), log(R_i1i2));
+//   if (auto q = est.estimate()) use(*q);
+// Threading: not thread-safe.
+#pragma once
+
+#include "instant_motion_tracking/core/camera_model.h"
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+
+#include <deque>
+#include <optional>
+
+namespace imt {
+
+// The rotation R (ideal rays at the previous frame -> rays at the current
+// one) that best explains the camera motion H between image pixels, over a
+// grid covering the middle 80% of the image; `rms_px` is how far, in pixels,
+// H's images of the grid are from the rotation's. False when H or the
+// camera model is unusable, or the grid's rays fall behind the camera.
+bool rotationFromHomography(const CameraModel& k, const Eigen::Matrix3d& H, Eigen::Matrix3d* R, double* rms_px);
+
+class CamImuRotationEstimator {
+ public:
+  struct Options {
+    double min_angle = 0.2 * M_PI / 180;  // rad; smaller turns between frames are mostly noise
+    int min_pairs = 30;                   // pairs before an estimate is given
+    // The turns must span two axes: the second-largest eigenvalue of
+    // sum theta_imu theta_imu^T at least this fraction of the largest.
+    double min_axis_ratio = 0.05;
+    double max_residual = 0.25;  // rms of |theta_cam - R theta_imu| / |theta_imu| for an estimate
+    size_t max_pairs = 2000;     // the most recent pairs kept
+  };
+
+  CamImuRotationEstimator() = default;
+  explicit CamImuRotationEstimator(const Options& o) : options_(o) {}
+
+  // One frame interval's rotation vectors (rad): the camera's and the
+  // gyro's. Ignored when non-finite or a turn under min_angle.
+  void add(const Eigen::Vector3d& theta_cam, const Eigen::Vector3d& theta_imu);
+  // R_cam_imu once min_pairs pairs over two axes agree on it (residual() at
+  // most max_residual); none before.
+  std::optional<Eigen::Quaterniond> estimate() const { return estimate_; }
+  // The fit's residual: rms of |theta_cam - R theta_imu| / |theta_imu| (-1 before any fit).
+  double residual() const { return residual_; }
+  size_t pairs() const { return pairs_.size(); }
+  void reset();
+
+ private:
+  void fit();
+
+  struct Pair {
+    Eigen::Vector3d cam, imu;
+  };
+  Options options_;
+  std::deque<Pair> pairs_;
+  std::optional<Eigen::Quaterniond> estimate_;
+  double residual_ = -1;
+};
+
+}  // namespace imt

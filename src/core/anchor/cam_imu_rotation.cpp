@@ -1,0 +1,109 @@
+#include "instant_motion_tracking/core/anchor/cam_imu_rotation.h"
+
+#include <Eigen/Dense>
+#include <Eigen/SVD>
+
+#include <algorithm>
+#include <cmath>
+#include <vector>
+
+namespace imt {
+namespace {
+
+// The rotation R maximising sum w_i a_i . (R b_i) (a_i ~ R b_i).
+Eigen::Matrix3d procrustes(const Eigen::Matrix3d& sum_a_bt) {
+  const Eigen::JacobiSVD<Eigen::Matrix3d> svd(sum_a_bt, Eigen::ComputeFullU | Eigen::ComputeFullV);
+  Eigen::Matrix3d D = Eigen::Matrix3d::Identity();
+  if ((svd.matrixU() * svd.matrixV().transpose()).determinant() < 0) D(2, 2) = -1;
+  return svd.matrixU() * D * svd.matrixV().transpose();
+}
+
+}  // namespace
+
+bool rotationFromHomography(const CameraModel& k, const Eigen::Matrix3d& H, Eigen::Matrix3d* R, double* rms_px) {
+  if (!k.valid || !(k.fx > 0) || !(k.fy > 0) || !H.allFinite() || k.width <= 0 || k.height <= 0) return false;
+  const Eigen::Matrix3d Kinv = k.K().inverse();
+  constexpr int kGrid = 5;
+  std::vector<Eigen::Vector3d> from, to;
+  std::vector<cv::Point2d> seen;  // H's images of the grid (image px)
+  for (int i = 0; i < kGrid; ++i)
+    for (int j = 0; j < kGrid; ++j) {
+      const cv::Point2d p(k.width * (0.1 + 0.8 * j / (kGrid - 1)), k.height * (0.1 + 0.8 * i / (kGrid - 1)));
+      const Eigen::Vector3d q = H * Eigen::Vector3d(p.x, p.y, 1.0);
+      if (!(q.z() > 0)) return false;
+      const cv::Point2d p2(q.x() / q.z(), q.y() / q.z());
+      const cv::Point2d a = k.undistort(p), b = k.undistort(p2);
+      from.push_back((Kinv * Eigen::Vector3d(a.x, a.y, 1.0)).normalized());
+      to.push_back((Kinv * Eigen::Vector3d(b.x, b.y, 1.0)).normalized());
+      seen.push_back(p2);
+    }
+  Eigen::Matrix3d M = Eigen::Matrix3d::Zero();
+  for (size_t i = 0; i < from.size(); ++i) M += to[i] * from[i].transpose();
+  *R = procrustes(M);
+  // How well the rotation reproduces H, in image pixels.
+  const Eigen::Matrix3d KR = k.K() * *R;
+  double sum = 0;
+  for (size_t i = 0; i < from.size(); ++i) {
+    const Eigen::Vector3d r = KR * from[i];
+    if (!(r.z() > 0)) return false;
+    const cv::Point2d shown = k.distort(cv::Point2d(r.x() / r.z(), r.y() / r.z()));
+    sum += std::pow(shown.x - seen[i].x, 2) + std::pow(shown.y - seen[i].y, 2);
+  }
+  *rms_px = std::sqrt(sum / from.size());
+  return std::isfinite(*rms_px);
+}
+
+void CamImuRotationEstimator::add(const Eigen::Vector3d& theta_cam, const Eigen::Vector3d& theta_imu) {
+  if (!theta_cam.allFinite() || !theta_imu.allFinite()) return;
+  if (theta_imu.norm() < options_.min_angle || theta_cam.norm() < options_.min_angle) return;
+  pairs_.push_back({theta_cam, theta_imu});
+  while (pairs_.size() > options_.max_pairs) pairs_.pop_front();
+  if (static_cast<int>(pairs_.size()) >= options_.min_pairs) fit();
+}
+
+void CamImuRotationEstimator::reset() {
+  pairs_.clear();
+  estimate_.reset();
+  residual_ = -1;
+}
+
+void CamImuRotationEstimator::fit() {
+  // The turns must span two axes, else the rotation about the one axis is free.
+  Eigen::Matrix3d S = Eigen::Matrix3d::Zero();
+  for (const Pair& p : pairs_) S += p.imu * p.imu.transpose();
+  const Eigen::Vector3d ev = Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(S).eigenvalues();  // ascending
+  if (!(ev(1) >= options_.min_axis_ratio * ev(2))) return;
+  // Two passes: all pairs, then those within 3x the median relative residual
+  // (a frame whose background motion was not the camera's turn: a passing
+  // object, a translation the rotation fit could not tell).
+  std::vector<double> rel(pairs_.size());
+  std::vector<bool> keep(pairs_.size(), true);
+  Eigen::Matrix3d R = Eigen::Matrix3d::Identity();
+  double rms = 0;
+  for (int pass = 0; pass < 2; ++pass) {
+    Eigen::Matrix3d M = Eigen::Matrix3d::Zero();
+    for (size_t i = 0; i < pairs_.size(); ++i)
+      if (keep[i]) M += pairs_[i].cam * pairs_[i].imu.transpose();
+    R = procrustes(M);
+    double sum = 0;
+    size_t n = 0;
+    for (size_t i = 0; i < pairs_.size(); ++i) {
+      rel[i] = (pairs_[i].cam - R * pairs_[i].imu).norm() / pairs_[i].imu.norm();
+      if (keep[i]) {
+        sum += rel[i] * rel[i];
+        ++n;
+      }
+    }
+    rms = n > 0 ? std::sqrt(sum / n) : 1e9;
+    if (pass == 0) {
+      std::vector<double> sorted = rel;
+      std::nth_element(sorted.begin(), sorted.begin() + sorted.size() / 2, sorted.end());
+      const double cut = std::max(0.1, 3 * sorted[sorted.size() / 2]);
+      for (size_t i = 0; i < pairs_.size(); ++i) keep[i] = rel[i] <= cut;
+    }
+  }
+  residual_ = rms;
+  if (rms <= options_.max_residual) estimate_ = Eigen::Quaterniond(R).normalized();
+}
+
+}  // namespace imt

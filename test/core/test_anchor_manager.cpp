@@ -446,11 +446,12 @@ TEST(AnchorManager, FloorWalkFindsTheImuRotationFromTheVideo) {
   EXPECT_LE(f.found_at, 5.0);
   EXPECT_FALSE(f.tracked_while_calibrating);
   EXPECT_LE(f.rotation_error, 1.0);
-  // From then on, the bars of FloorWalkAgainstGroundTruth for the pixel and
-  // the orientation (measured 0.71 px, 0.43 deg; 0.60 px, 0.06 deg with the
-  // rotation given). The range error is compared over the same frames with
-  // the rotation given (its walk after 3 s is harder than its start: 6.0%
-  // there, 4.4% over the whole walk): measured 6.5%; within a point of it.
+  // Measured: found 1.23 s in (37 states calibrating), 0.35 deg off at the
+  // end. From then on, the bars of FloorWalkAgainstGroundTruth for the pixel
+  // and the orientation (measured 0.64 px, 0.29 deg; 0.60 px, 0.06 deg with
+  // the rotation given). The range error is compared over the same frames
+  // with the rotation given (the walk's later part is harder than its start:
+  // 5.0% there, 4.4% over the whole walk): measured 5.7%; within a point.
   EXPECT_LE(median(f.px_in_view), 3.0);
   EXPECT_LE(median(f.rot), 1.0);
   WalkFigures given;

@@ -3,11 +3,19 @@
 // aligns them with the gyro's.
 #include "instant_motion_tracking/core/anchor/cam_imu_rotation.h"
 #include "instant_motion_tracking/core/anchor/imu_orientation.h"
+#include "instant_motion_tracking/core/motion/motion_analysis.h"
+
+#include "shared_data.h"
 
 #include <gtest/gtest.h>
+#include <opencv2/imgcodecs.hpp>
 
+#include <algorithm>
 #include <cmath>
+#include <cstdio>
+#include <fstream>
 #include <random>
+#include <sstream>
 
 namespace imt {
 namespace {
@@ -47,15 +55,25 @@ TEST(RotationFromHomography, ReadsTheTurnOffARotationHomography) {
 }
 
 TEST(RotationFromHomography, SaysWhenTheMotionIsNoTurn) {
-  // A camera 1 m from a wall moving 10 cm sideways and 10 cm closer: the
-  // wall's homography K (I + t n^T / d) K^-1 is no rotation.
+  // A camera 1 m over a floor (its normal along the camera's -y) moving 10 cm
+  // along its axis: the floor's homography K (I + t n^T / d) K^-1 stretches
+  // the image's lower part more than its upper, which no turn and zoom make
+  // (the best turn moves it 3 px, what it leaves is 5 px). (Sideways over a
+  // wall facing the camera would look like a pan: no homography tells those
+  // apart.)
   const CameraModel k = camera(false);
-  const Eigen::Vector3d t(0.1, 0, -0.1), n(0, 0, 1);
+  const Eigen::Vector3d t(0, 0, -0.1), n(0, -1, 0);
   const Eigen::Matrix3d H = k.K() * (Eigen::Matrix3d::Identity() + t * n.transpose() / 1.0) * k.K().inverse();
   Eigen::Matrix3d found;
   double rms = -1;
   ASSERT_TRUE(rotationFromHomography(k, H, &found, &rms));
-  EXPECT_GT(rms, 10.0);  // tens of pixels off: the zoom no rotation makes
+  std::printf("floor, along the axis: rms %.2f px\n", rms);
+  EXPECT_GT(rms, 4.0);
+  CameraMotion m;
+  m.model = MotionModel::kHomography;
+  m.H = H;
+  Eigen::Vector3d theta;
+  EXPECT_FALSE(cameraTurn(k, m, &theta));
   // Unusable input: no answer.
   EXPECT_FALSE(rotationFromHomography(k, Eigen::Matrix3d::Constant(NAN), &found, &rms));
   EXPECT_FALSE(rotationFromHomography(CameraModel(), H, &found, &rms));
@@ -122,6 +140,100 @@ TEST(CamImuRotationEstimator, WaitsForTurnsOnTwoAxesAndIgnoresOddFrames) {
   const size_t before = est.pairs();
   est.add(Eigen::Vector3d(NAN, 0, 0), Eigen::Vector3d(0.1, 0, 0));
   EXPECT_EQ(est.pairs(), before);
+}
+
+// Real phone video with its own gyro (../shared/data/phone_gyro_cc9_clip,
+// 103 frames at 800x600 over 3.4 s, 412 Hz gyro on the same clock, K given,
+// no pose truth). The clip's README found the axis mapping by correlating
+// flow with the gyro (horizontal flow = +f * integral of wx, vertical = -f *
+// integral of wy; so the camera's y turn is -wx, its x turn -wy, and its z
+// turn -wz for a proper rotation): R_cam_imu = [0 -1 0; -1 0 0; 0 0 -1].
+//
+// Measured: 89 of 102 frame pairs read as turns; the best fit is 11.7 deg
+// from that mapping (8.8 deg with the gyro shifted by 16.7 ms, half the
+// rolling shutter's readout: the camera-IMU time offset, not estimated yet),
+// and its residual 0.68 (0.54) is far over what the estimator accepts
+// (0.25). So the estimator refuses: the anchors stay `calibrating` rather
+// than say `tracked` with a rotation 12 deg off. Issue 14's goal (within a
+// few degrees here) needs the time offset and a rolling-shutter-aware turn.
+TEST(CamImuRotationEstimator, PhoneClipRefusesWhatItCannotFindWell) {
+  const std::string dir = test::sharedDataDir() + "/phone_gyro_cc9_clip";
+  if (!test::pathExists(dir + "/gyro.txt")) GTEST_SKIP() << dir << " is absent";
+  std::vector<double> frame_stamps;  // line k (1-based) <-> RE_frame-k.jpg
+  {
+    std::ifstream in(dir + "/framestamp.txt");
+    for (double t; in >> t;) frame_stamps.push_back(t);
+  }
+  struct Gyro {
+    double t;
+    Eigen::Vector3d w;
+  };
+  std::vector<Gyro> gyro;
+  {
+    std::ifstream in(dir + "/gyro.txt");
+    std::string line;
+    while (std::getline(in, line)) {
+      std::replace(line.begin(), line.end(), ',', ' ');
+      std::istringstream ls(line);
+      Gyro g;
+      if (ls >> g.w.x() >> g.w.y() >> g.w.z() >> g.t) gyro.push_back(g);
+    }
+  }
+  ASSERT_GT(frame_stamps.size(), 201u);
+  ASSERT_GT(gyro.size(), 1000u);
+  // The gyro's turn from t0 to t1 (midpoint rule between samples, the ends interpolated).
+  auto gyroTurn = [&](double t0, double t1) {
+    auto rate = [&](double t) {
+      const auto it = std::lower_bound(gyro.begin(), gyro.end(), t, [](const Gyro& g, double x) { return g.t < x; });
+      if (it == gyro.begin()) return it->w;
+      if (it == gyro.end()) return gyro.back().w;
+      const Gyro& a = *(it - 1);
+      const double u = (t - a.t) / (it->t - a.t);
+      return Eigen::Vector3d((1 - u) * a.w + u * it->w);
+    };
+    std::vector<double> ts = {t0};
+    for (const Gyro& g : gyro)
+      if (g.t > t0 && g.t < t1) ts.push_back(g.t);
+    ts.push_back(t1);
+    Eigen::Quaterniond q = Eigen::Quaterniond::Identity();
+    for (size_t i = 1; i < ts.size(); ++i) q = q * quaternionExp(0.5 * (rate(ts[i - 1]) + rate(ts[i])) * (ts[i] - ts[i - 1]));
+    const Eigen::AngleAxisd a(q);
+    return Eigen::Vector3d(a.angle() * a.axis());
+  };
+  CameraModel k;
+  k.fx = 573.8534;
+  k.fy = 575.0448;
+  k.cx = 406.0101 + 0.5;  // the source's pixel centres are integers; ours are at +0.5
+  k.cy = 309.0112 + 0.5;
+  k.width = 800;
+  k.height = 600;
+  k.valid = true;
+  MotionAnalyzer analyzer{MotionAnalysisOptions()};
+  CamImuRotationEstimator est;
+  int used = 0;
+  for (int f = 99; f <= 201; ++f) {
+    const cv::Mat gray = cv::imread(dir + "/img/RE_frame-" + std::to_string(f) + ".jpg", cv::IMREAD_GRAYSCALE);
+    ASSERT_FALSE(gray.empty()) << f;
+    const MotionData md = analyzer.process(gray, frame_stamps[f - 1]);
+    Eigen::Vector3d theta;
+    if (f == 99 || !cameraTurn(k, md.camera, &theta)) continue;
+    est.add(theta, gyroTurn(frame_stamps[f - 2], frame_stamps[f - 1]));
+    ++used;
+  }
+  ASSERT_TRUE(est.bestFit().has_value()) << used << " turns";
+  const Eigen::Matrix3d R = est.bestFit()->toRotationMatrix();
+  const Eigen::Matrix3d expected = (Eigen::Matrix3d() << 0, -1, 0, -1, 0, 0, 0, 0, -1).finished();
+  const double err = angleDeg(R, expected);
+  std::printf("phone clip: %d turns used, residual %.3f; best fit %.2f deg from the README's mapping:\n", used,
+              est.residual(), err);
+  for (int r = 0; r < 3; ++r) std::printf("  %7.4f %7.4f %7.4f\n", R(r, 0), R(r, 1), R(r, 2));
+  EXPECT_GT(used, 60);  // most frames read as turns (89 measured)
+  // The fit has the README's axes and signs (a wrong axis or sign is 90-180
+  // deg off): within 15 deg (11.7 measured; see above).
+  EXPECT_LT(err, 15.0);
+  // And it is refused: no rotation for the anchors from this clip.
+  EXPECT_GT(est.residual(), 0.25);
+  EXPECT_FALSE(est.estimate().has_value());
 }
 
 }  // namespace

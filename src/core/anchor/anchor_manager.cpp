@@ -193,17 +193,8 @@ void AnchorManager::update() {
   if (cache.size() >= 2) {
     const MotionData& md = cache.at(cache.lastSeq());
     const double t0 = cache.at(cache.lastSeq() - 1).stamp;
-    const CameraModel k = intrinsics();
-    Eigen::Matrix3d R_c1c0;
-    double rms = 0;
-    if (md.camera.model != MotionModel::kInvalid && rotationFromHomography(k, md.camera.H, &R_c1c0, &rms)) {
-      const Eigen::AngleAxisd turn(R_c1c0.transpose());  // camera at t1 in the camera at t0
-      // A turn explains the motion when what it leaves is under a tenth of it
-      // (or half a pixel): else the camera moved too (near scene) or the
-      // background was not what moved.
-      if (rms <= std::max(0.5, 0.1 * k.fx * turn.angle()))
-        turns_.push_back({t0, md.stamp, turn.angle() * turn.axis()});
-    }
+    Eigen::Vector3d theta;
+    if (cameraTurn(intrinsics(), md.camera, &theta)) turns_.push_back({t0, md.stamp, theta});
   }
   readTurns();
 }

@@ -24,7 +24,7 @@ bool rotationFromHomography(const CameraModel& k, const Eigen::Matrix3d& H, Eige
   if (!k.valid || !(k.fx > 0) || !(k.fy > 0) || !H.allFinite() || k.width <= 0 || k.height <= 0) return false;
   const Eigen::Matrix3d Kinv = k.K().inverse();
   constexpr int kGrid = 5;
-  std::vector<Eigen::Vector3d> from, to;
+  std::vector<Eigen::Vector3d> from, to;  // ideal normalised coordinates (z = 1)
   std::vector<cv::Point2d> seen;  // H's images of the grid (image px)
   for (int i = 0; i < kGrid; ++i)
     for (int j = 0; j < kGrid; ++j) {
@@ -33,24 +33,54 @@ bool rotationFromHomography(const CameraModel& k, const Eigen::Matrix3d& H, Eige
       if (!(q.z() > 0)) return false;
       const cv::Point2d p2(q.x() / q.z(), q.y() / q.z());
       const cv::Point2d a = k.undistort(p), b = k.undistort(p2);
-      from.push_back((Kinv * Eigen::Vector3d(a.x, a.y, 1.0)).normalized());
-      to.push_back((Kinv * Eigen::Vector3d(b.x, b.y, 1.0)).normalized());
+      from.push_back(Kinv * Eigen::Vector3d(a.x, a.y, 1.0));
+      to.push_back(Kinv * Eigen::Vector3d(b.x, b.y, 1.0));
       seen.push_back(p2);
     }
-  Eigen::Matrix3d M = Eigen::Matrix3d::Zero();
-  for (size_t i = 0; i < from.size(); ++i) M += to[i] * from[i].transpose();
-  *R = procrustes(M);
-  // How well the rotation reproduces H, in image pixels.
+  // A turn and a zoom about the principal point (the camera also moved
+  // along its axis: a hand walking forward), fitted in turn: the rotation
+  // by Procrustes on the rays with the zoom applied, the zoom by least
+  // squares on the points turned back.
+  double zoom = 1;
+  std::vector<Eigen::Vector3d> zoomed(from.size());
+  for (int it = 0; it < 4; ++it) {
+    Eigen::Matrix3d M = Eigen::Matrix3d::Zero();
+    for (size_t i = 0; i < from.size(); ++i) {
+      zoomed[i] = Eigen::Vector3d(zoom * from[i].x(), zoom * from[i].y(), 1.0).normalized();
+      M += to[i].normalized() * zoomed[i].transpose();
+    }
+    *R = procrustes(M);
+    double num = 0, den = 0;
+    for (size_t i = 0; i < from.size(); ++i) {
+      const Eigen::Vector3d back = R->transpose() * to[i];
+      if (!(back.z() > 0)) return false;
+      num += back.head<2>().dot(from[i].head<2>()) / back.z();
+      den += from[i].head<2>().squaredNorm();
+    }
+    if (!(den > 0)) break;
+    zoom = std::clamp(num / den, 0.5, 2.0);
+  }
+  // How well the turn and zoom reproduce H, in image pixels.
   const Eigen::Matrix3d KR = k.K() * *R;
   double sum = 0;
   for (size_t i = 0; i < from.size(); ++i) {
-    const Eigen::Vector3d r = KR * from[i];
+    const Eigen::Vector3d r = KR * Eigen::Vector3d(zoom * from[i].x(), zoom * from[i].y(), 1.0);
     if (!(r.z() > 0)) return false;
     const cv::Point2d shown = k.distort(cv::Point2d(r.x() / r.z(), r.y() / r.z()));
     sum += std::pow(shown.x - seen[i].x, 2) + std::pow(shown.y - seen[i].y, 2);
   }
   *rms_px = std::sqrt(sum / from.size());
   return std::isfinite(*rms_px);
+}
+
+bool cameraTurn(const CameraModel& k, const CameraMotion& camera, Eigen::Vector3d* theta) {
+  Eigen::Matrix3d R_c1c0;
+  double rms = 0;
+  if (camera.model == MotionModel::kInvalid || !rotationFromHomography(k, camera.H, &R_c1c0, &rms)) return false;
+  const Eigen::AngleAxisd turn(R_c1c0.transpose());
+  if (!(rms <= std::max(0.5, k.fx * turn.angle()))) return false;
+  *theta = turn.angle() * turn.axis();
+  return true;
 }
 
 void CamImuRotationEstimator::add(const Eigen::Vector3d& theta_cam, const Eigen::Vector3d& theta_imu) {
@@ -64,6 +94,7 @@ void CamImuRotationEstimator::add(const Eigen::Vector3d& theta_cam, const Eigen:
 void CamImuRotationEstimator::reset() {
   pairs_.clear();
   estimate_.reset();
+  best_fit_.reset();
   residual_ = -1;
 }
 
@@ -103,7 +134,8 @@ void CamImuRotationEstimator::fit() {
     }
   }
   residual_ = rms;
-  if (rms <= options_.max_residual) estimate_ = Eigen::Quaterniond(R).normalized();
+  best_fit_ = Eigen::Quaterniond(R).normalized();
+  if (rms <= options_.max_residual) estimate_ = best_fit_;
 }
 
 }  // namespace imt

@@ -28,6 +28,7 @@
 #pragma once
 
 #include "instant_motion_tracking/core/camera_model.h"
+#include "instant_motion_tracking/core/types.h"
 
 #include <Eigen/Core>
 #include <Eigen/Geometry>
@@ -39,10 +40,22 @@ namespace imt {
 
 // The rotation R (ideal rays at the previous frame -> rays at the current
 // one) that best explains the camera motion H between image pixels, over a
-// grid covering the middle 80% of the image; `rms_px` is how far, in pixels,
-// H's images of the grid are from the rotation's. False when H or the
-// camera model is unusable, or the grid's rays fall behind the camera.
+// grid covering the middle 80% of the image, together with a zoom about the
+// principal point (the camera moving along its axis, as a hand walking
+// forward does: 2-5% per frame on the phone clip); `rms_px` is how far, in
+// pixels, H's images of the grid are from the turn's and zoom's. False when
+// H or the camera model is unusable, or the grid's rays fall behind the camera.
 bool rotationFromHomography(const CameraModel& k, const Eigen::Matrix3d& H, Eigen::Matrix3d* R, double* rms_px);
+
+// The camera's turn over a frame interval as a rotation vector (the camera at
+// the frame in the camera at the previous one), from the frame's camera
+// motion; false when it has no model or the turn does not explain at least
+// as much of it as it leaves: what the turn and zoom leave is over the turn's
+// size in pixels (and over half a pixel), as when the camera moved sideways
+// over a near scene or the background was not what moved. (A rolling shutter
+// leaves 1-3 px of a 5 px turn on the phone clip: such frames stay in, and
+// the estimator's residual test judges them together.)
+bool cameraTurn(const CameraModel& k, const CameraMotion& camera, Eigen::Vector3d* theta);
 
 class CamImuRotationEstimator {
  public:
@@ -67,6 +80,8 @@ class CamImuRotationEstimator {
   std::optional<Eigen::Quaterniond> estimate() const { return estimate_; }
   // The fit's residual: rms of |theta_cam - R theta_imu| / |theta_imu| (-1 before any fit).
   double residual() const { return residual_; }
+  // The last fit, also when its residual refused it (for reports and tests).
+  std::optional<Eigen::Quaterniond> bestFit() const { return best_fit_; }
   size_t pairs() const { return pairs_.size(); }
   void reset();
 
@@ -78,7 +93,7 @@ class CamImuRotationEstimator {
   };
   Options options_;
   std::deque<Pair> pairs_;
-  std::optional<Eigen::Quaterniond> estimate_;
+  std::optional<Eigen::Quaterniond> estimate_, best_fit_;
   double residual_ = -1;
 };
 

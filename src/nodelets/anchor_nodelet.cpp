@@ -74,6 +74,19 @@ void AnchorNodelet::lookupRotation(TrackingSession& s, const std::string& imu_fr
                         s.rotationSource() == AnchorManager::RotationSource::kVideo ? "found" : "not yet");
 }
 
+// Where the IMU-to-camera rotation came from, and what the video shows of it:
+// "tf", "video (residual 0.04 over 120 turns)", "none (3 turns so far)".
+std::string AnchorNodelet::rotationReport(const TrackingSession& s) {
+  const auto& video = s.videoRotation();
+  std::string r = AnchorManager::rotationSourceName(s.rotationSource());
+  char fit[96];
+  if (video.residual() >= 0)
+    std::snprintf(fit, sizeof(fit), " (video: residual %.3f over %zu turns)", video.residual(), video.pairs());
+  else
+    std::snprintf(fit, sizeof(fit), " (video: %zu turns so far)", video.pairs());
+  return r + fit;
+}
+
 void AnchorNodelet::imuCb(const sensor_msgs::ImuConstPtr& msg) {
   ImuSample sample;
   std::string why;
@@ -81,13 +94,15 @@ void AnchorNodelet::imuCb(const sensor_msgs::ImuConstPtr& msg) {
     NODELET_WARN_THROTTLE(5.0, "dropping IMU sample: %s", why.c_str());
     return;
   }
-  std::string disagreement;
+  std::string disagreement, rotation;
   const ImuInput r = session([&](TrackingSession& s) {
     imu_seen_ = true;
     lookupRotation(s, msg->header.frame_id);
     disagreement = s.rotationDisagreement();
+    rotation = rotationReport(s);
     return s.addImu(sample, &why);
   });
+  health_.setNote("IMU-to-camera rotation", rotation);
   if (!disagreement.empty()) NODELET_WARN_THROTTLE(30.0, "%s", disagreement.c_str());
   switch (r) {
     case ImuInput::kAccepted:

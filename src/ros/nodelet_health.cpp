@@ -125,6 +125,11 @@ void NodeletHealth::processingStatus(diagnostic_updater::DiagnosticStatusWrapper
   s.addf("delay after the image stamp max (ms)", "%.1f", 1e3 * w.delay_max);
 }
 
+void NodeletHealth::setNote(const std::string& key, const std::string& value) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  notes_[key] = value;
+}
+
 void NodeletHealth::itemsStatus(diagnostic_updater::DiagnosticStatusWrapper& s) {
   std::lock_guard<std::mutex> lock(mutex_);
   std::map<std::string, int> counts = items_;
@@ -137,6 +142,7 @@ void NodeletHealth::itemsStatus(diagnostic_updater::DiagnosticStatusWrapper& s) 
     if (count > 0) text << (text.tellp() > 0 ? ", " : "") << count << " " << status;
   }
   s.add("total", total);
+  for (const auto& [key, value] : notes_) s.add(key, value);
   s.summaryf(DiagnosticStatus::OK, "%d %s%s%s", total, items_title_.c_str(), total ? ": " : "",
              text.str().c_str());
 }

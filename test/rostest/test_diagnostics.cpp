@@ -127,6 +127,12 @@ TEST(Diagnostics, RatesLatencyAndItemsByStatus) {
   EXPECT_EQ(diag.number("planar_targets: planar targets", "lost"), 0.0);
   EXPECT_FALSE(std::isnan(diag.number("planar_targets: planar targets", "out_of_view")));
   EXPECT_GT(target_msgs, 0u);
+  // The anchors' IMU-to-camera rotation: the bag's /tf_static gives it once
+  // the IMU flows: "tf (video: ...)", what the video shows of it beside.
+  ASSERT_TRUE(diag.has("anchor_tracker: anchors"));
+  const std::string rotation = diag.value("anchor_tracker: anchors", "IMU-to-camera rotation");
+  std::printf("anchor_tracker: IMU-to-camera rotation: %s\n", rotation.c_str());
+  EXPECT_EQ(rotation.rfind("tf (video: ", 0), 0u) << rotation;
 }
 
 }  // namespace

@@ -91,6 +91,7 @@ class TrackingSession {
   // and where it came from.
   const std::optional<Eigen::Quaterniond>& rotationCamImu() const { return anchors_->imu().rotationCamImu(); }
   AnchorManager::RotationSource rotationSource() const { return anchors_->rotationSource(); }
+  const CamImuRotationEstimator& videoRotation() const { return anchors_->videoRotation(); }
   // "" or a message: tf (or the option) and the video disagree on that rotation.
   std::string rotationDisagreement() const { return anchors_->rotationDisagreement(); }
   // An IMU sample, in stamp order (see AnchorManager::addImu for the outcomes).

@@ -11,7 +11,9 @@
 //                  subscribed without input, or on a reset/drop in the period
 //     processing   callback time (ms, wall) and delay of the output after its
 //                  image stamp (ms, ROS time), mean and max over the period
-//     <items>      e.g. "regions": how many items are in each status
+//     <items>      e.g. "regions": how many items are in each status, plus
+//                  what the nodelet adds with setNote() (e.g. the anchors'
+//                  IMU-to-camera rotation: where it came from)
 //
 // Usage (the nodelet's callbacks, under its own lock or not: this class locks):
 //   health_.start(nh, pnh, getName(), nh.resolveName("image"), period, "regions", {"tracked", ...});
@@ -52,6 +54,8 @@ class NodeletHealth {
   bool noteReset(const std::string& reason);
   // The current items' statuses, one entry per item.
   void setItems(const std::vector<std::string>& statuses);
+  // A key and value shown with the items (replacing the key's last value).
+  void setNote(const std::string& key, const std::string& value);
 
   uint64_t resets() const;
 
@@ -73,6 +77,7 @@ class NodeletHealth {
   std::string input_, items_title_;
   std::vector<std::string> item_statuses_;
   std::map<std::string, int> items_;
+  std::map<std::string, std::string> notes_;
   bool subscribed_ = false;
   Window window_, reported_;  // the period being filled, the one last reported
   uint64_t frames_ = 0, dropped_ = 0, resets_ = 0;

@@ -269,6 +269,7 @@ struct WalkFigures {
   double found_at = -1;         // s from the start: the first state with it
   double rotation_error = -1;   // deg: the rotation in use at the end against the scene's
   bool tracked_while_calibrating = false;  // a `tracked` state before it was found
+  std::string disagreement;               // AnchorManager::rotationDisagreement() at the end
 };
 
 // How a frame looks when motion analysis finds no camera model: invalid,
@@ -294,9 +295,11 @@ enum class OutOfView { kVisual, kNoCameraModel, kNoCameraModelNoFallback };
 // `mode`: while the anchor is out of view the frames may lose their camera
 // model (then the IMU rotation carries the regions, unless the fallback is off).
 // `hidden_rotation`: the IMU is mounted so (R_cam_imu), and nobody says so
-// (no tf, no option): the anchors must find it from the video.
+// (no tf, no option): the anchors must find it from the video; or tf says
+// `told` instead (wrong, unless it is the same).
 void runWalk(WalkFigures* out, OutOfView mode = OutOfView::kVisual,
-             const std::optional<Eigen::Quaterniond>& hidden_rotation = std::nullopt) {
+             const std::optional<Eigen::Quaterniond>& hidden_rotation = std::nullopt,
+             const std::optional<Eigen::Quaterniond>& told = std::nullopt) {
   SceneOptions o = test::preset("floor_walk");
   if (hidden_rotation) o.q_cam_imu = *hidden_rotation;
   auto scene = test::make(o);
@@ -308,6 +311,8 @@ void runWalk(WalkFigures* out, OutOfView mode = OutOfView::kVisual,
   anchors.setIntrinsics(K);
   if (!hidden_rotation) {
     ASSERT_TRUE(anchors.setRotationCamImu(scene->options().q_cam_imu));
+  } else if (told) {
+    ASSERT_TRUE(anchors.setRotationCamImu(*told));
   }
   const std::vector<ImuSample> imu = scene->imuSamples();
   size_t next_imu = 0;
@@ -392,6 +397,7 @@ void runWalk(WalkFigures* out, OutOfView mode = OutOfView::kVisual,
       }
     }
   }
+  out->disagreement = anchors.rotationDisagreement();
   if (anchors.rotationSource() != AnchorManager::RotationSource::kNone)
     out->rotation_error = Eigen::AngleAxisd(anchors.imu().rotationCamImu()->toRotationMatrix().transpose() *
                                             scene->options().q_cam_imu.toRotationMatrix())
@@ -462,6 +468,24 @@ TEST(AnchorManager, FloorWalkFindsTheImuRotationFromTheVideo) {
   std::printf("range median %.1f%%, with the rotation given over the same frames %.1f%%\n", 100 * median(f.range),
               100 * median(same_frames));
   EXPECT_LE(median(f.range), median(same_frames) + 0.01);
+}
+
+// tf says the IMU's axes are the camera's, but the IMU is mounted 128 deg
+// about a tilted axis: tf is used (the user's word), and the video's own
+// estimate makes a warning that names both. A tf the video agrees with makes
+// none.
+TEST(AnchorManager, TfTheVideoDisagreesWithIsWarnedAbout) {
+  const Eigen::Quaterniond mounted(Eigen::AngleAxisd(128 * M_PI / 180, Eigen::Vector3d(1, -2, 0.5).normalized()));
+  WalkFigures wrong, right;
+  runWalk(&wrong, OutOfView::kVisual, mounted, Eigen::Quaterniond::Identity());
+  runWalk(&right, OutOfView::kVisual, mounted, mounted);
+  std::printf("%s\n", wrong.disagreement.c_str());
+  EXPECT_NE(wrong.disagreement.find("the IMU-to-camera rotation from tf (qx qy qz qw [0.000 0.000 0.000 1.000])"),
+            std::string::npos)
+      << wrong.disagreement;
+  EXPECT_NE(wrong.disagreement.find("differ by 128"), std::string::npos) << wrong.disagreement;
+  EXPECT_EQ(right.disagreement, "");
+  EXPECT_EQ(wrong.calibrating, 0);  // tf gave a rotation from the start
 }
 
 // The fallback: while the anchor is out of view every frame loses its

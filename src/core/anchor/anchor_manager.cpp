@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <limits>
 #include <cmath>
+#include <cstdio>
 #include <sstream>
 
 namespace imt {
@@ -150,12 +151,14 @@ std::string AnchorManager::rotationDisagreement() const {
   const Eigen::Quaterniond& used = rotations_.back().second;
   const double deg = used.angularDistance(*video) * 180 / M_PI;
   if (!(deg > kRotationDisagreementDeg)) return "";
-  auto str = [](const Eigen::Quaterniond& q) {
-    return "[" + num(q.x()) + " " + num(q.y()) + " " + num(q.z()) + " " + num(q.w()) + "]";
-  };
-  return std::string("the IMU-to-camera rotation from ") + rotationSourceName(rotation_source_) + " (qx qy qz qw " +
-         str(used) + ") and the one the video shows (" + str(*video) + ") differ by " + num(deg) +
-         " deg: check the IMU's frame_id and the tf between it and the camera's optical frame";
+  char text[320];
+  std::snprintf(text, sizeof(text),
+                "the IMU-to-camera rotation from %s (qx qy qz qw [%.3f %.3f %.3f %.3f]) and the one the video shows "
+                "([%.3f %.3f %.3f %.3f]) differ by %.1f deg: check the IMU's frame_id and the tf between it and the "
+                "camera's optical frame",
+                rotationSourceName(rotation_source_), used.x(), used.y(), used.z(), used.w(), video->x(), video->y(),
+                video->z(), video->w(), deg);
+  return text;
 }
 
 ImuInput AnchorManager::addImu(const ImuSample& s, std::string* why) {

@@ -470,6 +470,50 @@ TEST(AnchorManager, FloorWalkFindsTheImuRotationFromTheVideo) {
   EXPECT_LE(median(f.range), median(same_frames) + 0.01);
 }
 
+// A rotation the video showed is the rig's: after a bag loop (frames and IMU
+// going back to stamps before it was found) an anchor is tracked at once, on
+// the loop's first frame (before the fix: calibrating, as the rotation
+// applied only from the stamp it was found at).
+TEST(AnchorManager, RotationFromTheVideoOutlivesABagLoop) {
+  SceneOptions o = test::preset("floor_walk");
+  o.q_cam_imu = Eigen::Quaterniond(Eigen::AngleAxisd(128 * M_PI / 180, Eigen::Vector3d(1, -2, 0.5).normalized()));
+  o.duration = 3.0;
+  auto scene = test::make(o);
+  ASSERT_TRUE(scene);
+  RegionManager regions(RegionTrackerOptions(), 10.0);
+  AnchorManager anchors(AnchorOptions(), ImuOptions(), 60.0, &regions);
+  anchors.setIntrinsics(scene->intrinsics());
+  const std::vector<ImuSample> imu = scene->imuSamples();
+  MotionAnalyzer analyzer{MotionAnalysisOptions()};
+  // Frames [from, to), the IMU fed up to each.
+  size_t next = 0;
+  auto play = [&](int from, int to) {
+    if (from == 0) next = 0;
+    for (int i = from; i < to; ++i) {
+      while (next < imu.size() && imu[next].stamp <= scene->frameStamp(i) + 0.006) anchors.addImu(imu[next++]);
+      regions.update(analyzer.process(scene->renderFrame(i), scene->frameStamp(i)));
+      anchors.update();
+    }
+  };
+  // Found after the first second, so the loop's first frames are before it.
+  int found = -1;
+  for (int i = 0; i < scene->frameCount() && found < 0; ++i) {
+    play(i, i + 1);
+    if (anchors.rotationSource() == AnchorManager::RotationSource::kVideo) found = i;
+  }
+  std::printf("found at frame %d\n", found);
+  ASSERT_GT(found, 1);
+  analyzer.reset();
+  play(0, 1);  // the loop: back to the start (on its first frame no turn is read yet)
+  EXPECT_EQ(regions.cachedFrames(), 1u);  // the loop reset the cache
+  uint32_t id;
+  std::string err;
+  ASSERT_TRUE(anchors.add(0, 0, scene->frameTruth(0).anchors[0].pixel, 1.0, &id, &err)) << err;
+  std::vector<AnchorState> st;
+  ASSERT_TRUE(anchors.statesAt(0, {}, &st, &err)) << err;
+  EXPECT_EQ(st[0].status, AnchorStatus::kTracked) << st[0].reason;
+}
+
 // tf says the IMU's axes are the camera's, but the IMU is mounted 128 deg
 // about a tilted axis: tf is used (the user's word), and the video's own
 // estimate makes a warning that names both. A tf the video agrees with makes

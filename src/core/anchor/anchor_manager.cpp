@@ -190,6 +190,11 @@ void AnchorManager::update() {
   if (!regions_->lastReset().empty()) {
     anchors_.clear();  // the region manager dropped their regions
     turns_.clear();
+    // A rotation the video showed belongs to the rig, not to the stream: the
+    // new stream (a bag loop: stamps from before it was found) has it from
+    // its first frame.
+    if (rotation_source_ == RotationSource::kVideo)
+      rotations_.assign(1, {-std::numeric_limits<double>::infinity(), rotations_.back().second});
   }
   // The newest frame's camera motion, read as a turn of the camera.
   const MotionCache& cache = regions_->cache();

@@ -69,13 +69,15 @@ void AnchorNodelet::lookupRotation(TrackingSession& s, const std::string& imu_fr
   }
   NODELET_WARN_THROTTLE(10.0,
                         "no tf %s <- %s yet (%s); the IMU-to-camera rotation is estimated from the video until it "
-                        "comes (%s; anchors are calibrating until then)",
+                        "comes (%s)",
                         camera_frame_.c_str(), imu_frame.c_str(), why.c_str(),
-                        s.rotationSource() == AnchorManager::RotationSource::kVideo ? "found" : "not yet");
+                        s.rotationSource() == AnchorManager::RotationSource::kVideo
+                            ? "found: anchors tracked with it"
+                            : "not found yet: anchors calibrating");
 }
 
 // Where the IMU-to-camera rotation came from, and what the video shows of it:
-// "tf", "video (residual 0.04 over 120 turns)", "none (3 turns so far)".
+// "tf (video: residual 0.040 over 120 turns)", "none (video: 3 turns so far)".
 std::string AnchorNodelet::rotationReport(const TrackingSession& s) {
   const auto& video = s.videoRotation();
   std::string r = AnchorManager::rotationSourceName(s.rotationSource());

@@ -121,13 +121,13 @@ bool AnchorManager::setRotationCamImu(const Eigen::Quaterniond& q_cam_imu) {
   return useRotation(q_cam_imu, RotationSource::kTf);
 }
 
-bool AnchorManager::useRotation(const Eigen::Quaterniond& q, RotationSource source) {
+bool AnchorManager::useRotation(const Eigen::Quaterniond& q, RotationSource source, double from) {
   if (!imu_.setRotationCamImu(q)) return false;
   const Eigen::Quaterniond unit = *imu_.rotationCamImu();
   if (source == RotationSource::kVideo) {
     // From the frame whose turn completed the estimate on: the frames before
     // it keep what they had (live and offline alike).
-    rotations_.emplace_back(video_from_, unit);
+    rotations_.emplace_back(from, unit);
   } else {
     // Given (options, tf): the rig's rotation, for every frame.
     rotations_.assign(1, {-std::numeric_limits<double>::infinity(), unit});
@@ -215,17 +215,13 @@ void AnchorManager::readTurns() {
     turns_.pop_front();
     Eigen::Matrix3d A, B;
     if (!imu_.R_world_imu(t.t0, &A) || !imu_.R_world_imu(t.t1, &B)) continue;  // before the IMU began, or a gap
-    const Eigen::AngleAxisd gyro(A.transpose() * B);  // the IMU at t1 in the IMU at t0
-    video_rotation_.add(t.theta_cam, gyro.angle() * gyro.axis());
+    video_rotation_.add(t.theta_cam, rotationVector(A.transpose() * B));  // the IMU at t1 in the IMU at t0
     const auto estimate = video_rotation_.estimate();
     if (!estimate) continue;
     const bool first = rotation_source_ == RotationSource::kNone;
     const bool moved = rotation_source_ == RotationSource::kVideo &&
                        rotations_.back().second.angularDistance(*estimate) * 180 / M_PI > kRotationUpdateDeg;
-    if (first || moved) {
-      video_from_ = t.t1;
-      useRotation(*estimate, RotationSource::kVideo);
-    }
+    if (first || moved) useRotation(*estimate, RotationSource::kVideo, t.t1);
   }
   // Bounded: turns the gyro never covers (an IMU that stopped) are dropped.
   while (turns_.size() > kMaxWaitingTurns) turns_.pop_front();

@@ -1,5 +1,7 @@
 #include "instant_motion_tracking/core/anchor/cam_imu_rotation.h"
 
+#include "instant_motion_tracking/core/anchor/imu_orientation.h"
+
 #include <Eigen/Dense>
 #include <Eigen/SVD>
 
@@ -77,9 +79,9 @@ bool cameraTurn(const CameraModel& k, const CameraMotion& camera, Eigen::Vector3
   Eigen::Matrix3d R_c1c0;
   double rms = 0;
   if (camera.model == MotionModel::kInvalid || !rotationFromHomography(k, camera.H, &R_c1c0, &rms)) return false;
-  const Eigen::AngleAxisd turn(R_c1c0.transpose());
-  if (!(rms <= std::max(0.5, k.fx * turn.angle()))) return false;
-  *theta = turn.angle() * turn.axis();
+  const Eigen::Vector3d turn = rotationVector(R_c1c0.transpose());
+  if (!(rms <= std::max(0.5, k.fx * turn.norm()))) return false;
+  *theta = turn;
   return true;
 }
 

@@ -17,6 +17,11 @@ std::string vec(const Eigen::Vector3d& v) {
 
 }  // namespace
 
+Eigen::Vector3d rotationVector(const Eigen::Matrix3d& R) {
+  const Eigen::AngleAxisd a(R);
+  return a.angle() * a.axis();
+}
+
 Eigen::Quaterniond quaternionExp(const Eigen::Vector3d& w) {
   const double theta = w.norm();
   const double half = 0.5 * theta;

@@ -31,7 +31,9 @@
 // (CamImuRotationEstimator; needs turns about two axes). Until one of them
 // gives it the anchors are `calibrating`: translation only, as no_imu. When
 // the rotation changes (tf arrives, the video's estimate moves by more than
-// kRotationUpdateDeg) the anchors re-take their world orientation with it.
+// kRotationUpdateDeg) the anchors' orientations follow it: each keeps the
+// IMU's orientation at placement, and the camera's comes through the
+// rotation in use at the frame asked for.
 // The video's estimate is kept up also when tf gives the rotation, to check
 // it (rotationDisagreement()).
 //
@@ -176,9 +178,10 @@ class AnchorManager {
   };
   void tryBind(Anchor& a, double stamp);
   AnchorState stateOf(Anchor& a, const RegionState& r, double stamp);
-  // The rotation in use becomes `q` from `source`: the anchors re-take their
-  // world orientation with it.
-  bool useRotation(const Eigen::Quaterniond& q, RotationSource source);
+  // The rotation in use becomes `q` from `source`: a given one (options, tf)
+  // for every frame, the video's from the frame stamped `from` on. The
+  // anchors' orientations follow it (they keep the IMU's at placement).
+  bool useRotation(const Eigen::Quaterniond& q, RotationSource source, double from = 0);
   // The video's turns waiting for the gyro to cover them, and the estimate
   // fed with those it does.
   void readTurns();
@@ -197,7 +200,6 @@ class AnchorManager {
   static constexpr size_t kMaxWaitingTurns = 300;
   // The rotations in use, each from a stamp on (given ones: from -inf).
   std::vector<std::pair<double, Eigen::Quaterniond>> rotations_;
-  double video_from_ = 0;  // the stamp the video's next estimate applies from
   const Eigen::Quaterniond* rotationAt(double t) const;  // nullptr: none at t
   CameraModel info_;
   std::map<uint32_t, Anchor> anchors_;

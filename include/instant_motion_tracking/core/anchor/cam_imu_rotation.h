@@ -11,18 +11,18 @@
 //
 // A camera rotation comes from a frame's camera motion H (image pixels,
 // previous -> current) by rotationFromHomography(): rays through a grid of
-// pixels and through their images under H, aligned by a rotation. H is
-// explained by a rotation only when the camera turned more than it moved
-// (or the scene is far); a frame whose rays do not fit one rotation is not
-// used. The focal length comes from camera_info, or from default_hfov_deg
+// pixels and through their images under H, aligned by a rotation and a
+// zoom. H is explained so only when the camera turned more than it moved
+// sideways (or the scene is far); cameraTurn() leaves out a frame whose rays
+// the turn does not explain. The focal length comes from camera_info, or from default_hfov_deg
 // without it: a focal length off by k% scales the visual rotation about x
 // and y by about k% while the rotation about z stays, which tilts the
 // estimate's axes by up to ~k/2% of a radian (under 3 deg for 10%).
 //
-// Usage:
+// Usage (AnchorManager does this for each frame):
 //   imt::CamImuRotationEstimator est;
-//   Eigen::Matrix3d R_c2c1; double rms;
-//   if (imt::rotationFromHomography(K, H, &R_c2c1, &rms)) est.add(log(R_c2c1^T), log(R_i1i2));
+//   Eigen::Vector3d theta_cam;
+//   if (imt::cameraTurn(K, md.camera, &theta_cam)) est.add(theta_cam, imt::rotationVector(R_imu0_imu1));
 //   if (auto q = est.estimate()) use(*q);
 // Threading: not thread-safe.
 #pragma once

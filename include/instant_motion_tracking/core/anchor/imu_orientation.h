@@ -150,5 +150,7 @@ class ImuOrientation {
 
 // Exp of a rotation vector (exact, stable near zero).
 Eigen::Quaterniond quaternionExp(const Eigen::Vector3d& rotation_vector);
+// Its inverse: the rotation vector (axis times angle, rad) of R.
+Eigen::Vector3d rotationVector(const Eigen::Matrix3d& R);
 
 }  // namespace imt

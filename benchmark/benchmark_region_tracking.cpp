@@ -5,10 +5,14 @@
 // Prints a table: frames per second of the whole pipeline and mean IoU
 // against the generator's ground truth. Single-threaded (cv::setNumThreads(1)).
 //
-//   make -C _build benchmarks && taskset -c 0 _build/benchmark/benchmark_region_tracking [seconds]
+//   make -C _build benchmarks && taskset -c 0 _build/benchmark/benchmark_region_tracking [--set option=value] [seconds]
+//
+// --set name=value changes a region_tracking option of the first rows (read
+// as config YAML is), to see what a part of the tracker costs.
 #include "instant_motion_tracking/core/motion/motion_analysis.h"
 #include "../test/box_metrics.h"
 #include "instant_motion_tracking/core/tracking_session.h"
+#include "instant_motion_tracking/io/config.h"
 #include "instant_motion_tracking/sim/scene.h"
 
 #include <opencv2/imgproc.hpp>
@@ -58,7 +62,22 @@ struct IouAccumulator {
 
 int main(int argc, char** argv) {
   cv::setNumThreads(1);
-  const double seconds = argc > 1 ? std::atof(argv[1]) : 10.0;
+  double seconds = 10.0;
+  imt::Config config;  // the first rows' options: the defaults, with --set
+  for (int i = 1; i < argc; ++i) {
+    const std::string a = argv[i];
+    if (a == "--set" && i + 1 < argc) {
+      std::string kv = argv[++i], err;
+      const size_t eq = kv.find('=');
+      if (eq != std::string::npos) kv.replace(eq, 1, ": ");
+      if (!imt::loadConfigYaml("region_tracking: {" + kv + "}", std::string("--set ") + argv[i], &config, &err)) {
+        std::fprintf(stderr, "%s\n", err.c_str());
+        return 2;
+      }
+    } else {
+      seconds = std::atof(argv[i]);
+    }
+  }
   auto opt = imt::SceneOptions::fromPreset("cards");
   opt->duration = seconds;
   opt->seed = 11;
@@ -104,9 +123,11 @@ int main(int argc, char** argv) {
   for (const bool appearance : {true, false}) {
   bool warmed_up = false;
   for (int count : {1, 1, 4, 10, 100}) {
-    imt::PipelineOptions options;
-    options.region_tracking.appearance = appearance;
-    if (!appearance) options.region_tracking.region_features = 0;
+    imt::PipelineOptions options = config.pipeline;
+    if (!appearance) {
+      options.region_tracking.appearance = false;
+      options.region_tracking.region_features = 0;
+    }
     imt::TrackingSession session(options, imt::TrackingSession::Mode::kLive);
     std::map<uint32_t, uint32_t> truth_id;  // tracker id -> scored truth id
     IouAccumulator acc;

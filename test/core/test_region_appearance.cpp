@@ -176,6 +176,29 @@ TEST(RegionAppearance, LongLostRegionSearchesLessOftenButComesBack) {
   EXPECT_EQ(foundOn(300, 20).size(), 1u);
 }
 
+// appearance_budget: up to 8 regions each check their look on every frame;
+// beyond, a firmly carried one every ceil(regions / 8) frames.
+TEST(RegionAppearance, ManyRegionsTakeTurnsAtTheirLook) {
+  RegionTrackerOptions o;  // appearance_budget 8
+  EXPECT_EQ(RegionTracker::lookInterval(o, 1), 1);
+  EXPECT_EQ(RegionTracker::lookInterval(o, 8), 1);
+  EXPECT_EQ(RegionTracker::lookInterval(o, 9), 2);
+  EXPECT_EQ(RegionTracker::lookInterval(o, 100), 13);
+  o.appearance_budget = 0;  // every region on every frame
+  EXPECT_EQ(RegionTracker::lookInterval(o, 100), 1);
+  // A region the motion data says nothing about is in doubt: its look is
+  // checked on every frame however many regions there are.
+  const cv::Mat img = texture();
+  const cv::Rect2d box(100, 80, 60, 40);
+  RegionTracker many(RegionTrackerOptions(), kSize, 100);
+  RegionState s = placed(many, img, box);
+  for (int k = 1; k <= 5; ++k) {
+    s = many.step(s, emptyMotion(0.033 * k), Direction::kForward, 0, shifted(img, 2 * k, k));
+    EXPECT_EQ(s.look_age, 0) << "frame " << k;
+    EXPECT_LT(centreError(s.box, box + cv::Point2d(2 * k, k)), 1.0) << "frame " << k;
+  }
+}
+
 TEST(RegionOwnFeatures, CarryARegionTheMotionDataHasNoFeaturesIn) {
   const cv::Mat img = texture();
   const cv::Rect2d box(100, 80, 40, 32);  // small: tracked at full resolution

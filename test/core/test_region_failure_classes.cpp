@@ -83,10 +83,12 @@ struct Tracked {
 };
 
 // Renders preset `name` (seed 1) through a live session and gives the target's
-// true box at the frame `chooseStart` picks from the truth.
+// true box at the frame `chooseStart` picks from the truth, and
+// `other_regions` boxes at random places (a twentieth of the image's sides)
+// with it.
 Tracked track(const std::string& name,
               const std::function<int(const std::vector<FrameTruth>&)>& chooseStart,
-              const RegionTrackerOptions& region_options = RegionTrackerOptions()) {
+              const RegionTrackerOptions& region_options = RegionTrackerOptions(), int other_regions = 0) {
   Tracked t;
   std::optional<SceneOptions> opt = SceneOptions::fromPreset(name);
   EXPECT_TRUE(opt) << name;
@@ -126,6 +128,13 @@ Tracked track(const std::string& name,
       uint32_t id = 0;
       EXPECT_TRUE(session.addRegion(kId, stamp, region(t.truth[k], kId)->box, &id, &err)) << err;
       EXPECT_EQ(id, kId);
+      cv::RNG rng(3);
+      const cv::Size2d b(t.size.width / 20.0, t.size.height / 20.0);
+      for (int i = 0; i < other_regions; ++i) {
+        const cv::Rect2d box(rng.uniform(0.0, t.size.width - b.width), rng.uniform(0.0, t.size.height - b.height),
+                             b.width, b.height);
+        EXPECT_TRUE(session.addRegion(0, stamp, box, &id, &err)) << err;
+      }
     }
   }
   session.advance(true);
@@ -295,6 +304,47 @@ TEST(RegionFailureClass, HiddenFor2sThenBack) {
   // 0.85 each.
   EXPECT_GE(before, 0.78);
   EXPECT_GE(again, 0.81);
+}
+
+// With many regions (region_tracking.appearance_budget, 8 by default) a
+// region the features carry firmly has its look checked on its turn only,
+// and a lost one searches on its turns: the cost stays bounded. The target
+// among 99 other regions must be tracked about as well as alone, through the
+// partial cover at init and through the 2 s hiding (found again later: a
+// lost region's searches come every ceil(100 / 8) = 13 frames).
+TEST(RegionFailureClass, TargetAmong99OtherRegions) {
+  {
+    const Tracked t = track("region_static_covered", [](const std::vector<FrameTruth>&) { return 0; },
+                            RegionTrackerOptions(), 99);
+    ASSERT_FALSE(t.states.empty());
+    int n = 0;
+    const double iou = t.meanIou(0, static_cast<int>(t.truth.size()), &n);
+    std::printf("region_static_covered among 99 other regions: mean IoU %.3f over %d frames\n", iou, n);
+    // Measured 0.935 (seeds 2-4: 0.949, 0.951, 0.946), as alone. Floor 0.05 under.
+    EXPECT_GE(iou, 0.88);
+  }
+  {
+    const Tracked t = track("region_hidden", firstWhole, RegionTrackerOptions(), 99);
+    ASSERT_FALSE(t.states.empty());
+    const int frames = static_cast<int>(t.truth.size());
+    int hidden_to = -1;
+    for (int k = 0; k < frames; ++k)
+      if (seenFraction(t.truth[k]) < 0.001) hidden_to = k + 1;
+    const int back = firstWholeFrame(t.truth, hidden_to);
+    ASSERT_GE(back, 0);
+    int n = 0;
+    const double again = t.meanIou(back + static_cast<int>(std::lround(0.5 * t.scene->options().fps)), frames, &n);
+    std::printf("region_hidden among 99 other regions: mean IoU from 0.5 s after it is back %.3f over %d frames\n",
+                again, n);
+    // Measured 0.753 (seeds 2-4: 0.887, 0.572, 0.864; alone 0.862, 0.887,
+    // 0.863, 0.882): found later than alone on seeds 1 and 3. Before a
+    // region took new corners only on the frames its look was checked, its
+    // stale score let it take corners on the panel coming over it, and it
+    // rode the panel (0.561); with the searches around its last place also
+    // on turns only after the first 10 frames lost, never found (0.000).
+    // Floor 0.05 under.
+    EXPECT_GE(again, 0.70);
+  }
 }
 
 }  // namespace

@@ -10,7 +10,7 @@ namespace imt {
 namespace {
 
 constexpr int kWindow = 13;              // LK window, crop px
-constexpr int kLevels = 3;               // pyramid levels above the crop
+constexpr int kLevels = 2;               // pyramid levels above the crop
 constexpr double kFbMaxError = 0.7;      // crop px, forward-backward check
 constexpr double kMinDistance = 4.0;     // crop px between corners
 constexpr double kQuality = 0.01;        // relative to the crop's best corner
@@ -81,9 +81,13 @@ std::vector<OwnFeature> trackOwnFeatures(const cv::Mat& from, const cv::Mat& to,
   std::vector<float> err;
   const cv::TermCriteria term(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, 20, 0.01);
   const cv::Size win(kWindow, kWindow);
-  cv::calcOpticalFlowPyrLK(a, b, p0, p1, st, err, win, kLevels, term, cv::OPTFLOW_USE_INITIAL_FLOW);
+  // Each crop's pyramid (with its derivatives) is built once, for both ways.
+  std::vector<cv::Mat> pa, pb;
+  const int levels = std::min(cv::buildOpticalFlowPyramid(a, pa, win, kLevels, true),
+                              cv::buildOpticalFlowPyramid(b, pb, win, kLevels, true));
+  cv::calcOpticalFlowPyrLK(pa, pb, p0, p1, st, err, win, levels, term, cv::OPTFLOW_USE_INITIAL_FLOW);
   back = p0;
-  cv::calcOpticalFlowPyrLK(b, a, p1, back, st_back, err, win, kLevels, term, cv::OPTFLOW_USE_INITIAL_FLOW);
+  cv::calcOpticalFlowPyrLK(pb, pa, p1, back, st_back, err, win, levels, term, cv::OPTFLOW_USE_INITIAL_FLOW);
   const cv::Rect2f inside(0, 0, static_cast<float>(b.cols - 1), static_cast<float>(b.rows - 1));
   for (size_t i = 0; i < points.size(); ++i) {
     if (!st[i] || !st_back[i] || !inside.contains(p1[i])) continue;

@@ -92,7 +92,7 @@ cv::Mat RegionManager::imageOf(uint64_t seq) const {
 }
 
 const RegionState& RegionManager::stateAt(Region& r, uint64_t seq) {
-  RegionTracker tracker(options_, cache_.imageSize());
+  RegionTracker tracker(options_, cache_.imageSize(), regions_.size());
   auto& st = r.states;
   MotionData scratch;
   // Forward from the newest known state.
@@ -140,7 +140,7 @@ bool RegionManager::add(uint32_t id, double stamp, const cv::Rect2d& box, uint32
   Region& r = regions_[id];
   r.id = id;
   RegionState start = RegionState::start(id, box, cache_.at(seq).stamp);
-  RegionTracker(options_, cache_.imageSize()).initFromImage(&start, imageOf(seq), cache_.at(seq));
+  RegionTracker(options_, cache_.imageSize(), regions_.size()).initFromImage(&start, imageOf(seq), cache_.at(seq));
   r.states[seq] = start;
   stateAt(r, cache_.lastSeq());  // catch up to the present
   *assigned_id = id;

@@ -239,7 +239,17 @@ std::string RegionTrackerOptions::validate() const {
   c.atLeast("appearance_lost_frames", appearance_lost_frames, 0);
   c.inRange("reacquire_score", reacquire_score, 0.0, 1.0);
   c.atLeast("reacquire_interval", reacquire_interval, 0);
+  c.atLeast("appearance_budget", appearance_budget, 0);
   return c.error();
+}
+
+int RegionTracker::lookInterval(const RegionTrackerOptions& options, size_t regions) {
+  if (options.appearance_budget <= 0 || regions <= static_cast<size_t>(options.appearance_budget)) return 1;
+  return static_cast<int>((regions + options.appearance_budget - 1) / options.appearance_budget);
+}
+
+double RegionTracker::lookConfidence(double score) const {
+  return std::clamp((score - options_.appearance_lost_score) / (1.0 - options_.appearance_lost_score), 0.0, 1.0);
 }
 
 bool RegionTracker::usable(const cv::Mat& image) const {
@@ -258,7 +268,20 @@ RegionState RegionTracker::step(const RegionState& state, const MotionData& md, 
     const bool camera_valid = md.camera.model != MotionModel::kInvalid;
     const bool weak = !camera_valid || next.coast_frames > 0 || next.status == RegionStatus::kFeatureless ||
                       static_cast<int>(next.inliers.size()) < options_.min_inliers_scale;
-    checkAppearance(state, &next, weak, image);
+    // Checked on every frame while in doubt (nothing of its own carries it,
+    // or its last look was poor); else on its turn only.
+    const bool doubtful = !camera_valid || next.coast_frames > 0 || next.status != RegionStatus::kTracked ||
+                          state.appearance_misses > 0 || state.appearance_score < options_.appearance_accept;
+    const bool turn = state.look_wait <= 0;
+    next.look_wait = turn ? look_interval_ - 1 : state.look_wait - 1;
+    if (doubtful || turn) {
+      checkAppearance(state, &next, weak, image);
+      next.look_age = 0;
+    } else {
+      // Not its turn: the last check's score stands.
+      next.look_age = state.look_age + 1;
+      next.confidence = std::max(next.confidence, lookConfidence(state.appearance_score));
+    }
   }
   // The region's own features go on with it: those still inside its box,
   // topped up with new corners there.
@@ -276,9 +299,11 @@ RegionState RegionTracker::step(const RegionState& state, const MotionData& md, 
     next.own_ids.push_back(f.id);
   }
   // New ones only where the region is seen as itself: not while it coasts
-  // behind an occluder, nor when it does not look like itself.
+  // behind an occluder, nor when it does not look like itself, nor on a
+  // frame its look was not checked on (an occluder may be coming over it).
   const bool seen = next.status == RegionStatus::kTracked && next.coast_frames == 0 &&
-                    (next.appearance_score < -0.5 || next.appearance_score >= options_.appearance_lost_score);
+                    (next.appearance_score < -0.5 ||
+                     (next.appearance_score >= options_.appearance_lost_score && next.look_age == 0));
   if (seen) {
     const auto motion = [](uint32_t id) { return id < kOwnFeatureIdBase; };
     addOwnFeatures(&next, image,
@@ -295,8 +320,11 @@ void RegionTracker::reacquire(RegionState* next, const cv::Mat& image) const {
   // its latest look and its look at placement in turn (the latest may have
   // taken on what covered it), the look at placement also tried around its
   // last place then. Its size changed unseen while it was lost: the wider
-  // scale range. When: lostSearchAt().
-  const LostSearch when = lostSearchAt(next->lost_frames, o.reacquire_interval);
+  // scale range. When: lostSearchAt(); when more regions than
+  // appearance_budget share the frames, the searches around its last place
+  // between the whole-frame ones come on its turns only (staggered by id).
+  LostSearch when = lostSearchAt(next->lost_frames, o.reacquire_interval);
+  when.local = when.whole || (when.local && (next->lost_frames + next->id) % look_interval_ == 0);
   if (!when.local) return;
   const auto& scales = RegionAppearance::lostScales();
   AppearanceMatch m = next->appearance.match(image, next->box, 1.0, scales);
@@ -326,7 +354,7 @@ void RegionTracker::reacquire(RegionState* next, const cv::Mat& image) const {
   next->first_appearance = first;
   next->frame_interval = interval;
   next->appearance_score = m.score;
-  next->confidence = std::min(1.0, (m.score - o.appearance_lost_score) / (1.0 - o.appearance_lost_score));
+  next->confidence = lookConfidence(m.score);
   next->status = fractionInside(next->box, image_size_) < o.out_of_view_fraction ? RegionStatus::kOutOfView
                                                                                  : RegionStatus::kTracked;
   next->reason = why;

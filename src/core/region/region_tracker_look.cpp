@@ -50,6 +50,8 @@ void RegionTracker::initFromImage(RegionState* state, const cv::Mat& image, cons
   if (options_.appearance &&
       RegionAppearance::create(image, state->box, options_.appearance_size, &state->appearance))
     state->first_appearance = state->appearance;
+  // Its turns among the others' (appearance_budget), staggered by id.
+  state->look_wait = static_cast<int>(state->id % look_interval_);
 }
 
 void RegionTracker::checkAppearance(const RegionState& state, RegionState* next, bool motion_weak,
@@ -77,7 +79,12 @@ void RegionTracker::checkAppearance(const RegionState& state, RegionState* next,
   if (m.score >= o.appearance_accept && m.score > m.score_at_box + o.appearance_gap) {
     // The motion fit is precise where many features carry it: the look
     // only nudges such a region, and moves one the features do not hold.
-    const double k = motion_weak ? 1.0 : o.appearance_gain * (1 - motion_confidence);
+    // A region checked on its turn only (appearance_budget) takes the
+    // nudges of the frames it was not checked on as well (and its template
+    // their updates, below).
+    const double k = motion_weak ? 1.0
+                                 : 1 - std::pow(1 - o.appearance_gain * (1 - motion_confidence),
+                                                state.look_age + 1);
     const cv::Point2d c0 = (next->box.tl() + next->box.br()) / 2, c1 = (m.box.tl() + m.box.br()) / 2;
     const cv::Point2d c = c0 + k * (c1 - c0);
     // Sizes from a 5% scale search are coarse, and a perspective view often
@@ -97,8 +104,7 @@ void RegionTracker::checkAppearance(const RegionState& state, RegionState* next,
   next->appearance_score = score;
   if (score >= o.appearance_accept) {
     next->appearance_misses = 0;
-    next->confidence = std::max(next->confidence, std::min(1.0, (score - o.appearance_lost_score) /
-                                                                    (1.0 - o.appearance_lost_score)));
+    next->confidence = std::max(next->confidence, lookConfidence(score));
     // Confident frames teach the template the region's current look, when
     // the look at placement agrees on where the region is (else the
     // template would learn whatever drifted into the box).
@@ -110,7 +116,7 @@ void RegionTracker::checkAppearance(const RegionState& state, RegionState* next,
       // A region the features carry firmly may change its look (turn, tilt)
       // beyond the first look's recognition: the features vouch for it.
       if (first_agrees || motion_confidence >= 0.75)
-        next->appearance.blend(image, next->box, o.appearance_update);
+        next->appearance.blend(image, next->box, 1 - std::pow(1 - o.appearance_update, state.look_age + 1));
     }
   } else if (score < o.appearance_lost_score) {
     // It looks wrong. Lost after appearance_lost_frames of that while few

@@ -23,8 +23,14 @@
 // `appearance_lost_frames` frames is lost; and a lost region is searched for
 // around its last place and, every `reacquire_interval` frames, over the
 // whole frame, and becomes `tracked` again on a strong match (its `reason`
-// says so on that frame). Without images the tracker runs on motion data
-// alone, as the paper's.
+// says so on that frame). The look costs far more than the motion step: with
+// more regions than `appearance_budget`, a region the features carry firmly
+// and that looked like itself at its last check is checked on its turn only
+// (every ceil(regions / budget) frames, staggered by id), taking on that
+// frame the nudges and template updates of the frames it skipped; a lost
+// region's searches around its last place between its whole-frame ones also
+// come on its turns. Without images the tracker runs on motion data alone,
+// as the paper's.
 //
 // A step works in either time direction: forward (frame k-1 -> k) and
 // backward (k -> k-1) use the same fit on reversed correspondences, which is
@@ -83,6 +89,8 @@ struct RegionState {
   double appearance_score = -1;    // NCC of the look at this frame's box (-1: not checked)
   int appearance_misses = 0;       // consecutive frames it did not look like itself
   int lost_frames = 0;             // frames since it was lost
+  int look_wait = 0;               // frames until its look's next turn (appearance_budget)
+  int look_age = 0;                // frames since its look was last checked
   std::vector<cv::Point2f> own_points;  // its own features at this frame (px), see region_features.h
   std::vector<uint32_t> own_ids;        // their ids (from kOwnFeatureIdBase)
   uint32_t next_own_id = 0;
@@ -109,8 +117,13 @@ class RegionLossLog {
 
 class RegionTracker {
  public:
-  RegionTracker(const RegionTrackerOptions& options, cv::Size image_size)
-      : options_(options), image_size_(image_size) {}
+  // `regions`: how many regions share the frames (the look's turns,
+  // appearance_budget).
+  RegionTracker(const RegionTrackerOptions& options, cv::Size image_size, size_t regions = 1)
+      : options_(options), image_size_(image_size), look_interval_(lookInterval(options, regions)) {}
+  // Frames between the turns of a firmly carried region's look check when
+  // `regions` share the frames: ceil(regions / appearance_budget), at least 1.
+  static int lookInterval(const RegionTrackerOptions& options, size_t regions);
 
   // Advances `state` by one frame. Forward: `md` is the motion data of the
   // next frame (it describes previous -> md). Backward: `md` is the motion
@@ -133,6 +146,9 @@ class RegionTracker {
 
  private:
   bool usable(const cv::Mat& image) const;
+  // The confidence a look's correlation `score` gives (0 at
+  // appearance_lost_score, 1 at a perfect match).
+  double lookConfidence(double score) const;
   // The motion step; with both images, the region's own features are tracked
   // too (`own`: those that were) and join the fit.
   RegionState stepMotion(const RegionState& state, const MotionData& md, Direction dir, double prev_stamp,
@@ -147,6 +163,7 @@ class RegionTracker {
 
   RegionTrackerOptions options_;
   cv::Size image_size_;
+  int look_interval_ = 1;  // lookInterval() for the regions it serves
 };
 
 }  // namespace imt

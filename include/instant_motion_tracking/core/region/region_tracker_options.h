@@ -47,6 +47,7 @@ struct RegionTrackerOptions {
   int appearance_lost_frames = 20;
   double reacquire_score = 0.75;
   int reacquire_interval = 5;
+  int appearance_budget = 8;
 
   template <class V>
   void visit(V& v) {
@@ -107,6 +108,10 @@ struct RegionTrackerOptions {
     v("reacquire_score", reacquire_score, "correlation at which a lost region is found again");
     v("reacquire_interval", reacquire_interval,
       "frames between a lost region's whole-frame searches (around its last place: every frame for the first 2 intervals, then with them); after 30 intervals, 4 times as many (0 = around its last place on every frame only)");
+    v("appearance_budget", appearance_budget,
+      "regions whose look is checked per frame, so the cost stays bounded with many regions: with more regions, "
+      "one the features carry firmly is checked on its turn, every ceil(regions / budget) frames; weak, doubtful "
+      "and lost ones on every frame (0 = every region on every frame)");
   }
   std::string validate() const;
   // The tracker reads the frames' images (own features or appearance).

@@ -12,6 +12,7 @@
 #include <gtest/gtest.h>
 
 #include <cstdlib>
+#include <functional>
 
 #include <algorithm>
 #include <cstdio>
@@ -265,6 +266,7 @@ struct WalkFigures {
   std::vector<double> px_in_view, px_after_return, rot, range, rot_late;
   int out_frames = 0, out_status = 0, statuses = 0;
   std::vector<std::pair<double, double>> range_at;  // (s from the start, range error) in view
+  std::vector<std::pair<double, double>> rot_at;    // (s from the start, orientation error deg) in view
   int calibrating = 0;          // anchor states without the IMU-to-camera rotation
   double found_at = -1;         // s from the start: the first state with it
   double rotation_error = -1;   // deg: the rotation in use at the end against the scene's
@@ -299,8 +301,10 @@ enum class OutOfView { kVisual, kNoCameraModel, kNoCameraModelNoFallback };
 // `told` instead (wrong, unless it is the same).
 void runWalk(WalkFigures* out, OutOfView mode = OutOfView::kVisual,
              const std::optional<Eigen::Quaterniond>& hidden_rotation = std::nullopt,
-             const std::optional<Eigen::Quaterniond>& told = std::nullopt) {
+             const std::optional<Eigen::Quaterniond>& told = std::nullopt,
+             const std::function<void(SceneOptions*)>& adjust = nullptr) {
   SceneOptions o = test::preset("floor_walk");
+  if (adjust) adjust(&o);
   if (hidden_rotation) o.q_cam_imu = *hidden_rotation;
   auto scene = test::make(o);
   ASSERT_TRUE(scene);
@@ -386,6 +390,7 @@ void runWalk(WalkFigures* out, OutOfView mode = OutOfView::kVisual,
         if (was_out && returned_at < 0) returned_at = truth.stamp;
         if (returned_at >= 0 && truth.stamp - returned_at <= 1.0) out->px_after_return.push_back(e);
         out->rot.push_back(angleDeg(s.T_cam_anchor.linear(), a.T_cam_anchor.linear()));
+        out->rot_at.emplace_back(truth.stamp - scene->frameStamp(0), out->rot.back());
         out->range.push_back(std::abs(
             s.T_cam_anchor.translation().norm() / a.T_cam_anchor.translation().norm() - 1));
         out->range_at.emplace_back(truth.stamp - scene->frameStamp(0), out->range.back());
@@ -468,6 +473,38 @@ TEST(AnchorManager, FloorWalkFindsTheImuRotationFromTheVideo) {
   std::printf("range median %.1f%%, with the rotation given over the same frames %.1f%%\n", 100 * median(f.range),
               100 * median(same_frames));
   EXPECT_LE(median(f.range), median(same_frames) + 0.01);
+}
+
+// Issue 14's slow-turn drift: the walk at a fifth of its motion (turns
+// under 5 deg/s, never still) for 18 s, with a constant gyro bias of 0.32
+// deg/s. The IMU alone took a stretch of slow turning for stillness (10 s
+// in) and its rate for the bias: the orientation error then grew 1.16 deg/s,
+// to 11.5 deg over the last 2 s. Stillness now needs the video's agreement
+// (imu.still_needs_video): no bias is learnt from turning, and the error grows
+// with the true bias only (0.31 deg/s, 5.3 deg over the last 2 s). The bias
+// itself is not yet tracked from the video (issue 14, item 2).
+TEST(AnchorManager, FloorWalkSlowTurnsWithAGyroBias) {
+  WalkFigures f;
+  const Eigen::Vector3d bias(0.003, -0.004, 0.002);  // rad/s, 0.32 deg/s
+  runWalk(&f, OutOfView::kVisual, std::nullopt, std::nullopt, [&](SceneOptions* o) {
+    o->trajectory_amplitude = 0.2;
+    o->duration = 18.0;
+    o->gyro_bias = bias;
+  });
+  std::vector<double> first, last;
+  for (const auto& [t, e] : f.rot_at) {
+    if (t < 2) first.push_back(e);
+    if (t > 16) last.push_back(e);
+  }
+  const double rate = (median(last) - median(first)) / 15;  // the medians are 15 s apart
+  std::printf("slow walk with a gyro bias: orientation median first 2 s %.3f deg, last 2 s %.3f deg: %.3f deg/s "
+              "(the bias: %.3f deg/s)\n",
+              median(first), median(last), rate, bias.norm() * 180 / M_PI);
+  ASSERT_FALSE(first.empty());
+  ASSERT_FALSE(last.empty());
+  // No faster than the bias itself (+0.05 deg/s for the walk's own error);
+  // 1.16 deg/s before.
+  EXPECT_LE(rate, bias.norm() * 180 / M_PI + 0.05);
 }
 
 // A rotation the video showed is the rig's: after a bag loop (frames and IMU

@@ -98,9 +98,12 @@ Errors compare(const ImuOrientation& imu, const SceneGenerator& scene, double fr
   return e;
 }
 
+// The IMU alone, without a camera: stillness is the IMU's to judge
+// (still_needs_video off; the anchors' tests give it the video).
 ImuOptions wholeScene() {
   ImuOptions opt;
   opt.window_seconds = 30;  // keep every sample of the scene for the comparison
+  opt.still_needs_video = false;
   return opt;
 }
 
@@ -114,7 +117,7 @@ TEST(ImuOrientation, OptionsVisitAndValidate) {
     ++fields;
   };
   o.visit(count);
-  EXPECT_EQ(fields, 14);
+  EXPECT_EQ(fields, 16);
   ImuOptions b = o;
   b.still_seconds = 0;
   EXPECT_NE(b.validate().find("imu.still_seconds"), std::string::npos) << b.validate();
@@ -369,6 +372,55 @@ TEST(ImuOrientation, BadSamplesAreDroppedWithAReason) {
   EXPECT_EQ(imu.size(), samples.size());
 }
 
+// Issue 14: a slow smooth turn about gravity (0.05 rad/s, 2.9 deg/s: under
+// still_gyro_max, the accelerometer steady) feels still to the IMU, which
+// then takes the turning rate for the bias. With the video's turns reported
+// (still_needs_video, the default) only a stretch the video saw still counts.
+TEST(ImuOrientation, StillnessNeedsTheVideosAgreement) {
+  const Eigen::Vector3d bias(0.004, -0.003, 0.002);  // rad/s
+  const double rate = 200, fps = 30, seconds = 4;
+  // The IMU's samples and the video's frames (camera = IMU axes) turning at
+  // `turn` rad/s about z; `known`: the video could read each frame's turn.
+  auto run = [&](double turn, bool needs_video, bool known, double video_lag) {
+    ImuOptions o;
+    o.still_needs_video = needs_video;
+    ImuOrientation imu(o);
+    std::mt19937 rng(3);
+    std::normal_distribution<double> gyro_n(0, 0.0005), angle_n(0, 2e-4);  // rad/s; rad per frame
+    int frame = 1;
+    for (int k = 0; k <= seconds * rate; ++k) {
+      ImuSample s;
+      s.stamp = 10 + k / rate;
+      s.gyro = Eigen::Vector3d(0, 0, turn) + bias + Eigen::Vector3d(gyro_n(rng), gyro_n(rng), gyro_n(rng));
+      s.accel = Eigen::Vector3d(0, 0, 9.81);
+      EXPECT_TRUE(imu.add(s));
+      // The frames up to the IMU's stamp less the video's lag.
+      for (; 10 + frame / fps <= s.stamp - video_lag; ++frame) {
+        const Eigen::Vector3d theta(angle_n(rng), angle_n(rng), turn / fps + angle_n(rng));
+        imu.addVideoTurn(10 + (frame - 1) / fps, 10 + frame / fps, theta, known);
+      }
+    }
+    return imu;
+  };
+  // The IMU alone takes the turn for the bias.
+  const ImuOrientation alone = run(0.05, false, true, 0);
+  ASSERT_TRUE(alone.biasEstimated());
+  EXPECT_NEAR(alone.gyroBias().z(), bias.z() + 0.05, 1e-3);
+  // With the video: no bias from it.
+  EXPECT_FALSE(run(0.05, true, true, 0).biasEstimated());
+  // Still, and the video agrees (lagging the IMU by 0.1 s, as a live camera
+  // does): the bias, to the gyro's noise (5e-4 rad/s per sample over >= 200
+  // samples: 3.5e-5 per axis; bound ~10 sigma).
+  const ImuOrientation still = run(0, true, true, 0.1);
+  ASSERT_TRUE(still.biasEstimated());
+  EXPECT_LT((still.gyroBias() - bias).norm(), 3e-4) << still.gyroBias().transpose();
+  // Still, but the video cannot read its frames (no camera model): no bias.
+  EXPECT_FALSE(run(0, true, false, 0).biasEstimated());
+  // A turn slow enough that single frames look still (0.006 rad/s, under 4x
+  // still_video_rate per frame) is caught by the frames' sum.
+  EXPECT_FALSE(run(0.006, true, true, 0).biasEstimated());
+}
+
 TEST(ImuOrientation, WindowIsBoundedAndQueriesOutsideItFail) {
   SceneOptions so = preset("rotate");
   so.duration = 10;
@@ -525,6 +577,7 @@ TEST(ImuOrientation, EurocGyroMatchesGroundTruthOver5sWindows) {
   // (first ~5 s, rotors vibrating: +-1 m/s^2, +-0.3 rad/s per sample).
   ImuOptions est;
   est.window_seconds = 200;
+  est.still_needs_video = false;  // the IMU alone (EuRoC's cameras are not used here)
   ImuOrientation imu(est);
   ASSERT_EQ(feed(imu, samples), samples.size());
   ASSERT_TRUE(imu.biasEstimated());

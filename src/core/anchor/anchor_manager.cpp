@@ -201,8 +201,11 @@ void AnchorManager::update() {
   if (cache.size() >= 2) {
     const MotionData& md = cache.at(cache.lastSeq());
     const double t0 = cache.at(cache.lastSeq() - 1).stamp;
-    Eigen::Vector3d theta;
-    if (cameraTurn(intrinsics(), md.camera, &theta)) turns_.push_back({t0, md.stamp, theta});
+    Eigen::Vector3d theta = Eigen::Vector3d::Zero();
+    const bool known = cameraTurn(intrinsics(), md.camera, &theta);
+    if (known) turns_.push_back({t0, md.stamp, theta});
+    // The IMU's stillness needs the video's agreement (a slow turn feels still).
+    imu_.addVideoTurn(t0, md.stamp, theta, known);
   }
   readTurns();
 }

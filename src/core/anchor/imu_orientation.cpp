@@ -48,6 +48,7 @@ std::string ImuOptions::validate() const {
           "must be in (0, still_gyro_max]", still_gyro_tight);
   c.inRange("still_replace_seconds", still_replace_seconds, still_seconds, 3600.0);
   c.check(still_accel_max > 0 && still_accel_max <= 100, "still_accel_max", "must be in (0, 100]", still_accel_max);
+  c.check(still_video_rate > 0 && still_video_rate <= 1, "still_video_rate", "must be in (0, 1]", still_video_rate);
   c.inRange("gravity", gravity, 1.0, 100.0);
   c.inRange("window_seconds", window_seconds, 0.1, 3600.0);
   c.check(max_gap_seconds > 0 && max_gap_seconds <= 10, "max_gap_seconds", "must be in (0, 10]", max_gap_seconds);
@@ -70,6 +71,46 @@ void ImuOrientation::reset() {
   gaps_ = 0;
   gap_stamps_.clear();
   last_gap_ = 0;
+  video_.clear();
+}
+
+void ImuOrientation::endStretch() {
+  still_count_ = 0;
+  still_confirmed_ = false;
+  initial_stretch_ = false;
+}
+
+void ImuOrientation::addVideoTurn(double t0, double t1, const Eigen::Vector3d& theta, bool known) {
+  if (!options_.still_needs_video || !std::isfinite(t0) || !std::isfinite(t1) || !(t1 > t0)) return;
+  VideoTurn v;
+  v.t0 = t0;
+  v.t1 = t1;
+  v.theta = known && theta.allFinite() ? theta : Eigen::Vector3d::Zero();
+  v.turned = !known || !theta.allFinite() || theta.norm() / (t1 - t0) >= 4 * options_.still_video_rate;
+  video_.push_back(v);
+  // Kept as long as the IMU's window (and bounded if the IMU stopped).
+  const double oldest = (window_.empty() ? t1 : std::max(t1, window_.back().stamp)) - options_.window_seconds;
+  while (!video_.empty() && (video_.front().t1 < oldest || video_.size() > 100000)) video_.pop_front();
+}
+
+ImuOrientation::Video ImuOrientation::videoOnStretch(double needed) const {
+  // The frames inside the stretch (the video may have reported them before
+  // or after the IMU's samples): any that turned ends it; else it is still
+  // once they cover `needed` seconds of it, with at most a fifth missing,
+  // and turn under still_video_rate on average.
+  double covered = 0, until = still_start_;
+  Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+  for (const VideoTurn& v : video_) {
+    if (v.t1 <= still_start_) continue;
+    if (v.turned) return Video::kTurned;
+    const double part = v.t1 - std::max(v.t0, still_start_);
+    covered += part;
+    sum += v.theta * (part / (v.t1 - v.t0));
+    until = std::max(until, v.t1);
+  }
+  const double span = until - still_start_;
+  if (span < needed || covered < 0.8 * span) return Video::kWait;
+  return sum.norm() / covered < options_.still_video_rate ? Video::kStill : Video::kTurned;
 }
 
 bool ImuOrientation::setRotationCamImu(const Eigen::Quaterniond& R_cam_imu) {
@@ -135,9 +176,7 @@ bool ImuOrientation::add(const ImuSample& s, std::string* why) {
     gap_stamps_.push_back(s.stamp);
     last_gap_ = s.stamp - window_.back().stamp;
     block_count_ = 0;  // stillness starts over
-    still_count_ = 0;
-    still_confirmed_ = false;
-    initial_stretch_ = false;
+    endStretch();
   } else {
     e.q_world_imu = integrate(window_.back(), s.gyro, s.stamp);
   }
@@ -170,9 +209,7 @@ void ImuOrientation::updateStill(const ImuSample& s) {
   const bool quiet = (mg - bias_).norm() < gmax &&
                      std::abs(ma.norm() - options_.gravity) < options_.still_accel_max;
   if (!quiet) {
-    still_count_ = 0;
-    still_confirmed_ = false;
-    initial_stretch_ = false;
+    endStretch();
     return;
   }
   if (still_count_ == 0 || (ma - still_accel_first_).norm() >= options_.still_accel_max) {
@@ -196,6 +233,11 @@ void ImuOrientation::updateStill(const ImuSample& s) {
     needed = std::max(needed, std::min(estimate_seconds_, options_.still_replace_seconds));
   const double lasted = s.stamp - still_start_;
   if (lasted < needed) return;
+  if (options_.still_needs_video) {
+    const Video v = videoOnStretch(needed);
+    if (v == Video::kTurned) endStretch();  // the next quiet block begins another
+    if (v != Video::kStill) return;
+  }
   bias_ = still_gyro_sum_ / static_cast<double>(still_count_);
   bias_estimated_ = true;
   estimate_seconds_ = lasted;

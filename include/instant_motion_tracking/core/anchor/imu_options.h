@@ -26,6 +26,8 @@ struct ImuOptions {
   double still_gyro_tight = 0.03;
   double still_replace_seconds = 3.0;
   double still_accel_max = 0.3;
+  bool still_needs_video = true;
+  double still_video_rate = 0.005;
   double gravity = 9.81;
   double window_seconds = 10.0;
   double max_gap_seconds = 0.1;
@@ -49,6 +51,12 @@ struct ImuOptions {
       "shorter)");
     v("still_accel_max", still_accel_max,
       "m/s^2; block-mean accel farther than this from g or the stretch's first block: not still");
+    v("still_needs_video", still_needs_video,
+      "a still stretch counts only once the video saw the camera not turning over it (a slow smooth turn "
+      "feels still to the IMU); false: the IMU alone judges (no camera)");
+    v("still_video_rate", still_video_rate,
+      "rad/s; the video's mean turn rate over a still stretch must stay under this, and each frame's under "
+      "4 times it");
     v("gravity", gravity, "m/s^2, local gravity magnitude");
     v("window_seconds", window_seconds, "s of integrated orientations kept for queries");
     v("max_gap_seconds", max_gap_seconds,

@@ -34,6 +34,20 @@
 // the stretch the stream began with, the initial level is re-taken from its
 // mean accelerometer reading (less noisy than the first reading).
 //
+// The video's agreement (still_needs_video, the default): a slow smooth turn
+// (under still_gyro_max, with the accelerometer steady) feels still to the
+// IMU, and its rate would be taken for the bias. So the camera's turns seen
+// in the frames are reported (addVideoTurn(), AnchorManager does it for each
+// frame), and a stretch qualifies only once the video has covered
+// still_seconds of it: every frame turning under 4 still_video_rate, their
+// sum under still_video_rate on average, none unknown (no camera model, or a
+// motion the turn does not explain). A frame that turns, or that the video
+// cannot read, ends the stretch. The video lags the IMU: a stretch waits for
+// it. The turn is read from the rays with a zoom apart (cameraTurn()), so a
+// camera moving straight ahead without turning still counts; one moving
+// sideways over a near scene does not (the video cannot tell its turn).
+// With still_needs_video and no frames at all, no bias is learnt.
+//
 // Gaps: samples farther apart than max_gap_seconds are not integrated across
 // (the rate in between is unknown). Queries inside a gap return false; the
 // first sample after it takes the orientation before it, re-levelled onto its
@@ -95,6 +109,10 @@ class ImuOrientation {
   // the homography that fits it best over the image
   // (CameraModel::imageHomography). Without distortion exactly the K overload.
   bool rotationHomography(const CameraModel& k, double t1, double t2, Eigen::Matrix3d* H) const;
+  // The camera's turn between the frames at t0 and t1 as the video saw it
+  // (rotation vector, rad, camera frame); `known` false when the video could
+  // not tell (no camera model, or not a turn). Stillness needs it (see the top).
+  void addVideoTurn(double t0, double t1, const Eigen::Vector3d& theta, bool known);
   // World +z (up) in the camera frame at t (unit); zero vector when unknown.
   Eigen::Vector3d upInCamera(double t) const;
 
@@ -122,6 +140,10 @@ class ImuOrientation {
   void updateStill(const ImuSample& s);
   void reintegrateFrom(double stamp);
   Eigen::Quaterniond levelFromAccel(const Eigen::Vector3d& accel) const;
+  // What the video says of the current stretch's first `needed` seconds.
+  enum class Video { kWait, kStill, kTurned };
+  Video videoOnStretch(double needed) const;
+  void endStretch();
   void prune();
 
   ImuOptions options_;
@@ -146,6 +168,13 @@ class ImuOrientation {
   Eigen::Vector3d still_gyro_sum_ = Eigen::Vector3d::Zero();
   Eigen::Vector3d still_accel_sum_ = Eigen::Vector3d::Zero();
   Eigen::Vector3d still_accel_first_ = Eigen::Vector3d::Zero();
+  // The video's frames (still_needs_video), in the order reported.
+  struct VideoTurn {
+    double t0 = 0, t1 = 0;
+    Eigen::Vector3d theta = Eigen::Vector3d::Zero();
+    bool turned = false;  // over 4 still_video_rate, or unknown
+  };
+  std::deque<VideoTurn> video_;
 };
 
 // Exp of a rotation vector (exact, stable near zero).

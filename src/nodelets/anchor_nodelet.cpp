@@ -86,7 +86,15 @@ std::string AnchorNodelet::rotationReport(const TrackingSession& s) {
     std::snprintf(fit, sizeof(fit), " (video: residual %.3f over %zu turns)", video.residual(), video.pairs());
   else
     std::snprintf(fit, sizeof(fit), " (video: %zu turns so far)", video.pairs());
-  return r + fit;
+  // The camera-IMU time offset in use, and the video's.
+  char offset[128];
+  const auto& f = s.timeOffsetFit();
+  if (f && f->found)
+    std::snprintf(offset, sizeof(offset), "; time offset %.1f ms (video: %.1f ms, correlation %.2f)",
+                  1000 * s.timeOffset(), 1000 * f->offset, f->correlation);
+  else
+    std::snprintf(offset, sizeof(offset), "; time offset %.1f ms (video: none yet)", 1000 * s.timeOffset());
+  return r + fit + offset;
 }
 
 void AnchorNodelet::imuCb(const sensor_msgs::ImuConstPtr& msg) {

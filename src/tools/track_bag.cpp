@@ -446,6 +446,12 @@ class TrackBagRun {
       d["R_cam_imu"] = {{R(0, 0), R(0, 1), R(0, 2)}, {R(1, 0), R(1, 1), R(1, 2)},
                         {R(2, 0), R(2, 1), R(2, 2)}};
     }
+    // The camera-IMU time offset in use, and what the video showed of it.
+    d["imu_time_offset"] = session_->timeOffset();
+    d["imu_time_offset_video"] = nullptr;
+    if (const auto& f = session_->timeOffsetFit())
+      d["imu_time_offset_video"] = {{"offset", f->offset}, {"found", f->found}, {"correlation", f->correlation},
+                                    {"correlation_at_zero", f->at_zero}, {"turns", f->turns}};
     d["frames_read_again"] = rereads_;
     d["models"] = model_counts_;
     nlohmann::json resets = nlohmann::json::object();

@@ -94,6 +94,9 @@ class TrackingSession {
   const CamImuRotationEstimator& videoRotation() const { return anchors_->videoRotation(); }
   // "" or a message: tf (or the option) and the video disagree on that rotation.
   std::string rotationDisagreement() const { return anchors_->rotationDisagreement(); }
+  // The camera-IMU time offset in use and the video's last fit of it.
+  double timeOffset() const { return anchors_->timeOffset(); }
+  const std::optional<TimeOffsetFit>& timeOffsetFit() const { return anchors_->timeOffsetFit(); }
   // An IMU sample, in stamp order (see AnchorManager::addImu for the outcomes).
   // Frames waiting for it may become ready: takeResults() afterwards.
   ImuInput addImu(const ImuSample& s, std::string* why = nullptr);

@@ -74,6 +74,7 @@ std::string AnchorOptions::validate() const {
           imu_reset_seconds);
   c.check(surface == "horizontal" || surface == "facing", "surface", "must be horizontal or facing",
           "\"" + surface + "\"");
+  c.inRange("imu_time_offset", imu_time_offset, -1.0, 1.0);
   Eigen::Quaterniond q;
   c.check(rotation_cam_imu.empty() || rotationCamImu(&q), "rotation_cam_imu",
           "must be empty or \"qx qy qz qw\", a unit quaternion", "\"" + rotation_cam_imu + "\"");
@@ -88,6 +89,7 @@ AnchorManager::AnchorManager(const AnchorOptions& options, const ImuOptions& imu
       imu_(imu_options) {
   Eigen::Quaterniond q;
   if (options_.rotationCamImu(&q)) useRotation(q, RotationSource::kOptions);
+  imu_.setTimeOffset(options_.imu_time_offset);
   // Frames without a usable camera model (blur, a featureless view): the
   // regions, the anchors' among them, move by the IMU rotation instead.
   // Through a distorting lens that motion is no homography between image
@@ -183,6 +185,7 @@ ImuInput AnchorManager::addImu(const ImuSample& s, std::string* why) {
 void AnchorManager::resetImu() {
   imu_.reset();
   turns_.clear();
+  clearTimeOffsetTurns();
   for (auto& [id, a] : anchors_) a.bound = false;
 }
 
@@ -190,6 +193,7 @@ void AnchorManager::update() {
   if (!regions_->lastReset().empty()) {
     anchors_.clear();  // the region manager dropped their regions
     turns_.clear();
+    clearTimeOffsetTurns();
     // A rotation the video showed belongs to the rig, not to the stream: the
     // new stream (a bag loop: stamps from before it was found) has it from
     // its first frame.
@@ -203,17 +207,42 @@ void AnchorManager::update() {
     const double t0 = cache.at(cache.lastSeq() - 1).stamp;
     Eigen::Vector3d theta = Eigen::Vector3d::Zero();
     const bool known = cameraTurn(intrinsics(), md.camera, &theta);
-    if (known) turns_.push_back({t0, md.stamp, theta});
+    if (known) {
+      turns_.push_back({t0, md.stamp, theta});
+      time_offset_.add(t0, md.stamp, theta.norm());
+    }
     // The IMU's stillness needs the video's agreement (a slow turn feels still).
     imu_.addVideoTurn(t0, md.stamp, theta, known);
   }
   readTurns();
+  if (time_offset_.turns() >= next_offset_fit_) fitTimeOffset();
+}
+
+void AnchorManager::clearTimeOffsetTurns() {
+  // The offset found stays (it is the rig's); the turns of the old stream go.
+  time_offset_.clear();
+  next_offset_fit_ = time_offset_.options().min_turns;
+}
+
+void AnchorManager::fitTimeOffset() {
+  next_offset_fit_ = time_offset_.turns() + kOffsetRefitTurns;
+  const TimeOffsetFit fit = time_offset_.fit([this](double s0, double s1, double* angle) {
+    Eigen::Matrix3d A, B;
+    if (!imu_.atImuStamp(s0, &A) || !imu_.atImuStamp(s1, &B)) return false;
+    *angle = Eigen::AngleAxisd(A.transpose() * B).angle();
+    return true;
+  });
+  if (fit.turns > 0) time_offset_fit_ = fit;
+  // Applied from now on (the frames before keep what they had, live and
+  // offline alike); a change under a millisecond is noise.
+  if (options_.estimate_imu_time_offset && fit.found && std::abs(fit.offset - imu_.timeOffset()) >= 0.001)
+    imu_.setTimeOffset(fit.offset);
 }
 
 void AnchorManager::readTurns() {
   // The gyro's turn over each interval it covers now; the video's turns
   // wait for it (live, the IMU may lag the frames).
-  while (!turns_.empty() && !imu_.empty() && turns_.front().t1 <= imu_.newestStamp()) {
+  while (!turns_.empty() && !imu_.empty() && turns_.front().t1 + imu_.timeOffset() <= imu_.newestStamp()) {
     const Turn t = turns_.front();
     turns_.pop_front();
     Eigen::Matrix3d A, B;
@@ -236,7 +265,7 @@ void AnchorManager::tryBind(Anchor& a, double stamp) {
   if (a.bound || imu_.empty()) return;
   Eigen::Matrix3d R;
   if (!imu_.R_world_imu(a.stamp, &R)) {
-    if (!(a.stamp < imu_.oldestStamp() && imu_.R_world_imu(stamp, &R))) return;
+    if (!(a.stamp + imu_.timeOffset() < imu_.oldestStamp() && imu_.R_world_imu(stamp, &R))) return;
   }
   a.bound = true;
   a.R_world_imu0 = R;
@@ -363,8 +392,9 @@ AnchorState AnchorManager::stateOf(Anchor& a, const RegionState& r, double stamp
     else if (!a.bound)
       s.reason = "the IMU has not covered the anchor's frame yet";
     else
-      s.reason = "no IMU orientation at stamp " + num(stamp) + " (IMU spans " +
-                 num(imu_.oldestStamp()) + " .. " + num(imu_.newestStamp()) + ")";
+      s.reason = "no IMU orientation at stamp " + num(stamp) + " (IMU spans " + num(imu_.oldestStamp()) + " .. " +
+                 num(imu_.newestStamp()) +
+                 (imu_.timeOffset() != 0 ? ", read at image stamp + " + num(imu_.timeOffset()) + " s)" : ")");
   } else if (!q) {
     s.status = AnchorStatus::kCalibrating;
     s.reason = "the IMU-to-camera rotation is not known yet: no tf between the IMU and the camera, no "
@@ -418,7 +448,7 @@ bool AnchorManager::statesAt(double stamp, const std::vector<uint32_t>& ids,
 }
 
 bool AnchorManager::ready(double stamp, double newest_frame_stamp) const {
-  if (anchors_.empty() || imu_.empty() || imu_.newestStamp() >= stamp) return true;
+  if (anchors_.empty() || imu_.empty() || imu_.newestStamp() >= stamp + imu_.timeOffset()) return true;
   return newest_frame_stamp - stamp >= options_.imu_wait_seconds;
 }
 

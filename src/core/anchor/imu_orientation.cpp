@@ -82,14 +82,14 @@ void ImuOrientation::endStretch() {
 
 void ImuOrientation::addVideoTurn(double t0, double t1, const Eigen::Vector3d& theta, bool known) {
   if (!options_.still_needs_video || !std::isfinite(t0) || !std::isfinite(t1) || !(t1 > t0)) return;
-  VideoTurn v;
-  v.t0 = t0;
-  v.t1 = t1;
+  VideoTurn v;  // on the IMU's clock
+  v.t0 = t0 + offset_;
+  v.t1 = t1 + offset_;
   v.theta = known && theta.allFinite() ? theta : Eigen::Vector3d::Zero();
   v.turned = !known || !theta.allFinite() || theta.norm() / (t1 - t0) >= 4 * options_.still_video_rate;
   video_.push_back(v);
   // Kept as long as the IMU's window (and bounded if the IMU stopped).
-  const double oldest = (window_.empty() ? t1 : std::max(t1, window_.back().stamp)) - options_.window_seconds;
+  const double oldest = (window_.empty() ? v.t1 : std::max(v.t1, window_.back().stamp)) - options_.window_seconds;
   while (!video_.empty() && (video_.front().t1 < oldest || video_.size() > 100000)) video_.pop_front();
 }
 
@@ -268,7 +268,13 @@ void ImuOrientation::prune() {
   while (!gap_stamps_.empty() && gap_stamps_.front() <= window_.front().stamp) gap_stamps_.pop_front();
 }
 
-bool ImuOrientation::R_world_imu(double t, Eigen::Matrix3d* R) const {
+bool ImuOrientation::setTimeOffset(double seconds) {
+  if (!std::isfinite(seconds) || std::abs(seconds) > 1) return false;
+  offset_ = seconds;
+  return true;
+}
+
+bool ImuOrientation::atImuStamp(double t, Eigen::Matrix3d* R) const {
   if (window_.empty() || !std::isfinite(t) || t < window_.front().stamp || t > window_.back().stamp)
     return false;
   auto it = std::lower_bound(window_.begin(), window_.end(), t,
@@ -296,8 +302,8 @@ bool ImuOrientation::R_cam1_cam2(double t1, double t2, Eigen::Matrix3d* R) const
   Eigen::Matrix3d R1, R2;
   if (!R_world_cam(t1, &R1) || !R_world_cam(t2, &R2)) return false;
   // A gap in between: the rotation across it is unknown.
-  const auto gap = std::upper_bound(gap_stamps_.begin(), gap_stamps_.end(), std::min(t1, t2));
-  if (gap != gap_stamps_.end() && *gap <= std::max(t1, t2)) return false;
+  const auto gap = std::upper_bound(gap_stamps_.begin(), gap_stamps_.end(), std::min(t1, t2) + offset_);
+  if (gap != gap_stamps_.end() && *gap <= std::max(t1, t2) + offset_) return false;
   if (R) *R = R1.transpose() * R2;
   return true;
 }

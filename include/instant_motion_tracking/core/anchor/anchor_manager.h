@@ -50,6 +50,7 @@
 #pragma once
 
 #include "instant_motion_tracking/core/anchor/cam_imu_rotation.h"
+#include "instant_motion_tracking/core/anchor/time_offset.h"
 #include "instant_motion_tracking/core/anchor/imu_orientation.h"
 #include "instant_motion_tracking/core/region/region_manager.h"
 #include "instant_motion_tracking/core/types.h"
@@ -61,6 +62,7 @@
 #include <cstdint>
 #include <deque>
 #include <map>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -123,6 +125,10 @@ class AnchorManager {
   // "" or, when the rotation in use (options or tf) and the video's estimate
   // differ by more than kRotationDisagreementDeg, a message naming both.
   std::string rotationDisagreement() const;
+  // The camera-IMU time offset in use (s; IMU stamp = image stamp + it), and
+  // the last fit from the video (none before one had turns to work with).
+  double timeOffset() const { return imu_.timeOffset(); }
+  const std::optional<TimeOffsetFit>& timeOffsetFit() const { return time_offset_fit_; }
   static constexpr double kRotationUpdateDeg = 0.2;
   static constexpr double kRotationDisagreementDeg = 5.0;
   // Appends an IMU sample (stamp order). kDropped with *why for NaN values or
@@ -198,6 +204,14 @@ class AnchorManager {
   };
   std::deque<Turn> turns_;
   static constexpr size_t kMaxWaitingTurns = 300;
+  // The camera-IMU time offset (anchors.estimate_imu_time_offset): the
+  // video's turn angles, refitted every kOffsetRefitTurns of them.
+  void fitTimeOffset();
+  void clearTimeOffsetTurns();
+  TimeOffsetEstimator time_offset_;
+  size_t next_offset_fit_ = TimeOffsetEstimator::Options().min_turns;
+  static constexpr size_t kOffsetRefitTurns = 60;
+  std::optional<TimeOffsetFit> time_offset_fit_;
   // The rotations in use, each from a stamp on (given ones: from -inf).
   std::vector<std::pair<double, Eigen::Quaterniond>> rotations_;
   const Eigen::Quaterniond* rotationAt(double t) const;  // nullptr: none at t

@@ -18,6 +18,8 @@ struct AnchorOptions {
   double imu_reset_seconds = 1.0;
   std::string rotation_cam_imu;
   std::string surface = "horizontal";
+  double imu_time_offset = 0.0;
+  bool estimate_imu_time_offset = false;
 
   template <class V>
   void visit(V& v) {
@@ -36,6 +38,13 @@ struct AnchorOptions {
     v("surface", surface,
       "what anchors sit on, for the range from the region's scale: horizontal (floor, table: the "
       "paper's assumption; tilt from the IMU) | facing (a patch facing the camera)");
+    v("imu_time_offset", imu_time_offset,
+      "s; an image stamped t was taken when the IMU's clock read t + this (late driver stamps, a rolling "
+      "shutter's middle row); the start value when estimated");
+    v("estimate_imu_time_offset", estimate_imu_time_offset,
+      "use the offset the video shows (always estimated and reported, within +-0.1 s: the changes of the "
+      "camera's turn rate aligned with the gyro's over the last 20 s of frames, refitted every 2 s); off by "
+      "default: a camera moving over a near plane biases it (+14 ms on the rendered floor walk)");
   }
   // Empty when usable, else "anchors.<field>: must be ... (got ...)".
   std::string validate() const;

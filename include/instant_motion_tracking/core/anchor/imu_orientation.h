@@ -92,9 +92,20 @@ class ImuOrientation {
   // to the rig, not to the stream.
   const std::optional<Eigen::Quaterniond>& rotationCamImu() const { return q_cam_imu_; }
 
-  // Orientation at stamp t (slerp between the bracketing samples); false when
-  // t is outside [oldestStamp(), newestStamp()] or no sample was accepted.
-  bool R_world_imu(double t, Eigen::Matrix3d* R) const;
+  // The camera-IMU time offset: an image stamped t was taken when the IMU's
+  // clock read t + offset (time_offset.h). The queries below take image
+  // stamps and read the IMU at t + offset; the samples keep their own stamps
+  // (oldestStamp(), newestStamp()). reset() keeps it: it belongs to the rig.
+  // False (ignored) when not finite or over 1 s.
+  bool setTimeOffset(double seconds);
+  double timeOffset() const { return offset_; }
+
+  // Orientation at image stamp t (slerp between the bracketing samples);
+  // false when t + timeOffset() is outside [oldestStamp(), newestStamp()] or
+  // no sample was accepted.
+  bool R_world_imu(double t, Eigen::Matrix3d* R) const { return atImuStamp(t + offset_, R); }
+  // The same at an IMU stamp.
+  bool atImuStamp(double imu_stamp, Eigen::Matrix3d* R) const;
   bool R_world_cam(double t, Eigen::Matrix3d* R) const;
   // Camera rotation between two stamps: maps camera-at-t2 vectors into the
   // camera at t1 (R_world_cam(t1)^T R_world_cam(t2)). Yaw-free and bias-light:
@@ -110,7 +121,7 @@ class ImuOrientation {
   // (CameraModel::imageHomography). Without distortion exactly the K overload.
   bool rotationHomography(const CameraModel& k, double t1, double t2, Eigen::Matrix3d* H) const;
   // The camera's turn between the frames at t0 and t1 as the video saw it
-  // (rotation vector, rad, camera frame); `known` false when the video could
+  // (rotation vector, rad, camera frame; image stamps); `known` false when the video could
   // not tell (no camera model, or not a turn). Stillness needs it (see the top).
   void addVideoTurn(double t0, double t1, const Eigen::Vector3d& theta, bool known);
   // World +z (up) in the camera frame at t (unit); zero vector when unknown.
@@ -148,6 +159,7 @@ class ImuOrientation {
 
   ImuOptions options_;
   std::optional<Eigen::Quaterniond> q_cam_imu_;
+  double offset_ = 0;  // s, setTimeOffset()
   Eigen::Vector3d bias_ = Eigen::Vector3d::Zero();
   bool bias_estimated_ = false;
   double estimate_seconds_ = 0;  // duration of the still stretch behind the estimate

@@ -117,7 +117,7 @@ TEST(ImuOrientation, OptionsVisitAndValidate) {
     ++fields;
   };
   o.visit(count);
-  EXPECT_EQ(fields, 16);
+  EXPECT_EQ(fields, 18);
   ImuOptions b = o;
   b.still_seconds = 0;
   EXPECT_NE(b.validate().find("imu.still_seconds"), std::string::npos) << b.validate();
@@ -335,6 +335,23 @@ TEST(ImuOrientation, BadSamplesAreDroppedWithAReason) {
   why.clear();
   EXPECT_FALSE(imu.add(s, &why));
   EXPECT_NE(why.find("accel"), std::string::npos) << why;
+  // Finite but beyond any sensor (issue 16: an accelerometer reading of
+  // 1e300 tilted the anchors' "up" by 88 deg, a gyro of 1e30 turned them 7
+  // deg, both silently): dropped with the bound named.
+  s = samples[100];
+  s.accel.x() = 1e300;
+  why.clear();
+  EXPECT_FALSE(imu.add(s, &why));
+  EXPECT_NE(why.find("imu.max_accel"), std::string::npos) << why;
+  s = samples[100];
+  s.gyro.z() = 1e30;
+  why.clear();
+  EXPECT_FALSE(imu.add(s, &why));
+  EXPECT_NE(why.find("imu.max_gyro"), std::string::npos) << why;
+  s = samples[100];
+  s.gyro.z() = 30.0;  // 1700 deg/s: a fast spin, in range
+  ImuOrientation spin(wholeScene());
+  EXPECT_TRUE(spin.add(s, &why)) << why;
   s = samples[100];
   s.stamp = nan;
   why.clear();

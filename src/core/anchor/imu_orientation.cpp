@@ -50,6 +50,8 @@ std::string ImuOptions::validate() const {
   c.check(still_accel_max > 0 && still_accel_max <= 100, "still_accel_max", "must be in (0, 100]", still_accel_max);
   c.check(still_video_rate > 0 && still_video_rate <= 1, "still_video_rate", "must be in (0, 1]", still_video_rate);
   c.inRange("gravity", gravity, 1.0, 100.0);
+  c.check(max_gyro > 0 && max_gyro <= 1000, "max_gyro", "must be in (0, 1000] rad/s", max_gyro);
+  c.check(max_accel > gravity && max_accel <= 10000, "max_accel", "must be in (gravity, 10000] m/s^2", max_accel);
   c.inRange("window_seconds", window_seconds, 0.1, 3600.0);
   c.check(max_gap_seconds > 0 && max_gap_seconds <= 10, "max_gap_seconds", "must be in (0, 10]", max_gap_seconds);
   return c.error();
@@ -140,6 +142,14 @@ bool ImuOrientation::add(const ImuSample& s, std::string* why) {
   if (!std::isfinite(s.stamp)) return fail("IMU sample dropped: stamp is not finite");
   if (!s.gyro.allFinite()) return fail("IMU sample dropped: gyro " + vec(s.gyro) + " is not finite");
   if (!s.accel.allFinite()) return fail("IMU sample dropped: accel " + vec(s.accel) + " is not finite");
+  // Finite but beyond any sensor's range: a broken reading, which would tilt
+  // "up" or turn the orientation at once.
+  if (s.gyro.norm() > options_.max_gyro)
+    return fail("IMU sample dropped: gyro " + vec(s.gyro) + " is over imu.max_gyro (" +
+                std::to_string(options_.max_gyro) + " rad/s)");
+  if (s.accel.norm() > options_.max_accel)
+    return fail("IMU sample dropped: accel " + vec(s.accel) + " is over imu.max_accel (" +
+                std::to_string(options_.max_accel) + " m/s^2)");
   const bool fused = options_.use_fused_orientation && s.has_orientation;
   if (s.has_orientation) {
     const double n = s.orientation.norm();

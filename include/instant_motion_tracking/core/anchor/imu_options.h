@@ -29,6 +29,8 @@ struct ImuOptions {
   bool still_needs_video = true;
   double still_video_rate = 0.005;
   double gravity = 9.81;
+  double max_gyro = 35.0;
+  double max_accel = 160.0;
   double window_seconds = 10.0;
   double max_gap_seconds = 0.1;
 
@@ -58,6 +60,11 @@ struct ImuOptions {
       "rad/s; the video's mean turn rate over a still stretch must stay under this, and each frame's under "
       "4 times it");
     v("gravity", gravity, "m/s^2, local gravity magnitude");
+    v("max_gyro", max_gyro,
+      "rad/s; a sample whose gyro magnitude is over this is dropped as broken (2000 deg/s, the widest MEMS range)");
+    v("max_accel", max_accel,
+      "m/s^2; a sample whose accelerometer magnitude is over this is dropped as broken (16 g, the widest common "
+      "range)");
     v("window_seconds", window_seconds, "s of integrated orientations kept for queries");
     v("max_gap_seconds", max_gap_seconds,
       "s between IMU samples above which the stream is interrupted: no orientation inside the gap, "

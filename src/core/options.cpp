@@ -47,6 +47,8 @@ std::string PipelineOptions::validate() const {
   OptionChecker c("");
   c.inRange("cache_seconds", cache_seconds, 0.0, 600.0);
   c.inRange("default_hfov_deg", default_hfov_deg, 1.0, 179.0);
+  c.check(time_jump_reset_seconds > 0 && time_jump_reset_seconds <= 3600, "time_jump_reset_seconds",
+          "must be in (0, 3600]", time_jump_reset_seconds);
   std::string e = c.error();
   if (!e.empty()) return e;
   e = motion_analysis.validate();

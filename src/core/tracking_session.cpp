@@ -4,6 +4,8 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
+#include <cstdio>
 
 namespace imt {
 namespace {
@@ -72,7 +74,31 @@ void TrackingSession::setKeepImages(bool keep) {
   regions_.setImageBudget(imageBudget());
 }
 
+bool TrackingSession::dropByTime(double stamp) {
+  last_drop_.clear();
+  const double newest = newest_stamp_;
+  if (!std::isfinite(stamp)) return false;  // the analysis and the cache refuse it
+  if (stamp > newest || stamp <= newest - options_.time_jump_reset_seconds) {
+    newest_stamp_ = stamp;  // the next frame, a gap, or a jump back (a restart)
+    return false;
+  }
+  char text[192];
+  if (stamp == newest) {
+    ++time_drops_.duplicate;
+    std::snprintf(text, sizeof(text), "frame stamp %.6f repeats the previous frame's: dropped", stamp);
+  } else {
+    ++time_drops_.behind;
+    std::snprintf(text, sizeof(text),
+                  "frame stamp %.6f is %.3f s behind the newest %.6f (under time_jump_reset_seconds %.3g, so not "
+                  "a restart): dropped",
+                  stamp, newest - stamp, newest, options_.time_jump_reset_seconds);
+  }
+  last_drop_ = text;
+  return true;
+}
+
 const MotionData& TrackingSession::analyze(const cv::Mat& gray, double stamp) {
+  if (dropByTime(stamp)) return last_motion_;
   const auto t0 = Clock::now();
   last_motion_ = analyzer_.process(gray, stamp);
   addTime("motion_analysis", secondsSince(t0));
@@ -92,6 +118,7 @@ void TrackingSession::dropStaleFrames(double stamp) {
 }
 
 void TrackingSession::pushMotion(const MotionData& md, const cv::Mat& gray) {
+  if (dropByTime(md.stamp)) return;
   dropStaleFrames(md.stamp);
   pending_.push_back({md, gray});
   advance(false);

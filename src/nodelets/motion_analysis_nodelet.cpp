@@ -53,6 +53,12 @@ void MotionAnalysisNodelet::imageCb(const std_msgs::Header& header, const cv::Ma
   hub_->noteHeader(header, received);
   session([&](TrackingSession& s) {
     const MotionData& md = s.analyze(gray, header.stamp.toSec());
+    if (!s.lastDrop().empty()) {
+      // A repeated stamp, or one slightly behind: dropped, tracks kept.
+      NODELET_WARN_THROTTLE(5.0, "%s", s.lastDrop().c_str());
+      health_.noteDropped(s.lastDrop());
+      return;
+    }
     if (!s.lastAnalysisReset().empty() && health_.noteReset(s.lastAnalysisReset()))
       NODELET_WARN("motion analysis reset at stamp %.6f: %s", header.stamp.toSec(), s.lastAnalysisReset().c_str());
     if (motion_pub_.getNumSubscribers() > 0) motion_pub_.publish(toMsg(md, header));

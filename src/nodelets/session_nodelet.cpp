@@ -147,7 +147,16 @@ void SessionNodelet::feed(const instant_motion_tracking::MotionDataConstPtr& msg
     return;
   }
   hub_->noteHeader(msg->header, received);
-  session([&](TrackingSession& s) { s.pushMotion(md, gray); });
+  std::string dropped;
+  session([&](TrackingSession& s) {
+    s.pushMotion(md, gray);
+    dropped = s.lastDrop();
+  });
+  if (!dropped.empty()) {
+    // A repeated stamp, or one slightly behind: dropped, tracks kept.
+    NODELET_WARN_THROTTLE(5.0, "%s", dropped.c_str());
+    health_.noteDropped(dropped);
+  }
 }
 
 }  // namespace imt

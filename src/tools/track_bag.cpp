@@ -247,6 +247,12 @@ class TrackBagRun {
     stage_seconds_["decode"] += clock.lap();
 
     const imt::MotionData& md = session_->analyze(gray, stamp);
+    if (!session_->lastDrop().empty()) {
+      // A repeated stamp or one slightly behind: not a frame of the run
+      // (counted in summary.json; the first one named in a note).
+      if (first_drop_.empty()) first_drop_ = "frame " + std::to_string(im.index) + ": " + session_->lastDrop();
+      return true;
+    }
     if (!session_->lastAnalysisReset().empty() && im.index > 0) {
       ResetInfo& ri = resets_[session_->lastAnalysisReset()];
       if (ri.count++ == 0) {
@@ -401,6 +407,11 @@ class TrackBagRun {
     if (session_->rotationSource() == Source::kVideo)
       notes_.note("IMU-to-camera rotation estimated from the video (no tf: " + tf_why_ +
                   "); anchors are calibrating until the frame it was found at");
+    const auto& drops = session_->timeDrops();
+    if (drops.duplicate + drops.behind > 0)
+      notes_.warn(std::to_string(drops.duplicate + drops.behind) + " frame(s) dropped by the time rules (" +
+                  std::to_string(drops.duplicate) + " repeated stamps, " + std::to_string(drops.behind) +
+                  " slightly behind the newest; first: " + first_drop_ + ")");
     const std::string disagreement = session_->rotationDisagreement();
     if (!disagreement.empty()) notes_.warn(disagreement);
     for (const std::string& m : libraryLog().messages) notes_.warn(m);
@@ -452,6 +463,8 @@ class TrackBagRun {
     if (const auto& f = session_->timeOffsetFit())
       d["imu_time_offset_video"] = {{"offset", f->offset}, {"found", f->found}, {"correlation", f->correlation},
                                     {"correlation_at_zero", f->at_zero}, {"turns", f->turns}};
+    d["frames_dropped"] = {{"duplicate_stamp", session_->timeDrops().duplicate},
+                           {"stamp_behind", session_->timeDrops().behind}};
     d["frames_read_again"] = rereads_;
     d["models"] = model_counts_;
     nlohmann::json resets = nlohmann::json::object();
@@ -491,6 +504,7 @@ class TrackBagRun {
   bool size_warned_ = false;
   size_t frames_ = 0;
   int rereads_ = 0;
+  std::string first_drop_;  // the first frame the time rules dropped, and why
   std::map<std::string, double> stage_seconds_;
   std::map<std::string, int> model_counts_;
   std::map<std::string, ResetInfo> resets_;

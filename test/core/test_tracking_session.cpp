@@ -6,11 +6,14 @@
 // did not keep from its image source, so a tiny image budget changes nothing.
 #include "instant_motion_tracking/core/tracking_session.h"
 
+#include "../box_metrics.h"
 #include "scene_test_util.h"
 
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdio>
+#include <functional>
 #include <map>
 #include <vector>
 
@@ -405,13 +408,87 @@ TEST(TrackingSession, ItemsAreRefusedWithAMessage) {
   ASSERT_TRUE(s.seekRegions(0, {}, &states, &err)) << err;
   EXPECT_EQ(states.size(), 1u);
   EXPECT_FALSE(s.removeRegion(AnchorManager::kAnchorRegionBase, &err));
-  // Time going back clears the items, and the result says why.
-  s.analyze(cv::Mat(240, 320, CV_8UC1, cv::Scalar(128)), 0.5);
+  // Time going back (by time_jump_reset_seconds or more) clears the items,
+  // and the result says why.
+  s.analyze(cv::Mat(240, 320, CV_8UC1, cv::Scalar(128)), 0.0);
   const auto results = s.takeResults();
   ASSERT_FALSE(results.empty());
   EXPECT_FALSE(results.back().reset.empty());
   EXPECT_EQ(s.regionCount(), 0u);
   EXPECT_EQ(s.anchorCount(), 0u);
+}
+
+}  // namespace
+}  // namespace imt
+
+namespace imt {
+namespace {
+
+// Issue 16's time rules. Before them, a bag with every second image stamp
+// repeated gave 15 full resets in 45 frames, each wiping every region.
+// cards (no IMU needed): a region on card 1, given at frame 0, live.
+TEST(TrackingSession, RepeatedAndSlightlyLateStampsAreDroppedNotResets) {
+  const Rendered r = render("cards", 2.0, 2);
+  ASSERT_TRUE(r.scene);
+  const FrameTruth f0 = r.scene->frameTruth(0);
+  const FrameTruth::Region* card = nullptr;
+  for (const auto& reg : f0.regions)
+    if (reg.id == 1) card = &reg;
+  ASSERT_NE(card, nullptr);
+  // `extra(k)`: stamps fed after frame k's own (each a copy of frame k's image).
+  auto run = [&](const std::function<std::vector<double>(int, double)>& extra, int* resets, double* iou) {
+    TrackingSession s(PipelineOptions(), TrackingSession::Mode::kLive);
+    std::string err;
+    uint32_t id = 0;
+    *resets = 0;
+    double sum = 0;
+    int n = 0;
+    for (int k = 0; k < static_cast<int>(r.frames.size()); ++k) {
+      const double t = r.scene->frameStamp(k);
+      std::vector<double> stamps = {t};
+      for (double e : extra(k, t)) stamps.push_back(e);
+      for (double stamp : stamps) {
+        s.analyze(r.frames[k], stamp);
+        s.advance(true);
+        for (const FrameResult& fr : s.takeResults()) {
+          *resets += !fr.reset.empty();
+          for (const RegionState& st : fr.regions) {
+            if (st.id != id || fr.motion.stamp != t) continue;
+            for (const auto& reg : r.scene->frameTruth(k).regions)
+              if (reg.id == 1 && reg.visible_fraction > 0.5) {
+                sum += st.status == RegionStatus::kLost ? 0 : test::iou(st.box, reg.box);
+                ++n;
+              }
+          }
+        }
+      }
+      if (k == 0) EXPECT_TRUE(s.addRegion(0, t, card->box, &id, &err)) << err;
+    }
+    *iou = n ? sum / n : 0;
+    return s.timeDrops();
+  };
+  int resets = 0;
+  double clean = 0, iou = 0;
+  run([](int, double) { return std::vector<double>{}; }, &resets, &clean);
+  EXPECT_EQ(resets, 0);
+  // Every frame's stamp given twice: the copies are dropped.
+  TrackingSession::TimeDrops d = run([](int, double t) { return std::vector<double>{t}; }, &resets, &iou);
+  std::printf("card 1: mean IoU %.3f; every stamp twice: %.3f, %zu dropped, %d resets\n", clean, iou, d.duplicate,
+              resets);
+  EXPECT_EQ(resets, 0);
+  EXPECT_EQ(d.duplicate, r.frames.size());
+  EXPECT_NEAR(iou, clean, 1e-9);  // the dropped copies change nothing
+  // A frame 5 ms behind after every fifth: dropped too.
+  d = run([](int k, double t) { return k % 5 == 4 ? std::vector<double>{t - 0.005} : std::vector<double>{}; },
+          &resets, &iou);
+  EXPECT_EQ(resets, 0);
+  EXPECT_EQ(d.behind, r.frames.size() / 5);
+  EXPECT_NEAR(iou, clean, 1e-9);
+  // A jump back by time_jump_reset_seconds (1 s) or more is a restart.
+  d = run([&](int k, double t) { return k == 40 ? std::vector<double>{t - 1.0} : std::vector<double>{}; }, &resets,
+          &iou);
+  EXPECT_GE(resets, 1);
+  EXPECT_EQ(d.behind + d.duplicate, 0u);
 }
 
 }  // namespace

@@ -213,30 +213,37 @@ TEST_F(TrackBag, StartAndEndSelectAWindowOfTheBag) {
                          "by --start/--end (frames 1000.200000 .. 1000.400000)\n");
 }
 
-TEST_F(TrackBag, StampsGoingBackwardsOrRepeatingResetOnceEachAndAreStillWritten) {
+// The time rules (issue 16): a repeated stamp and one slightly behind are
+// dropped (not analysed, not written; counted in summary.json, one warning
+// naming the first); a jump back of time_jump_reset_seconds (1 s) or more
+// resets. Before, the repeated stamp reset the analysis and every item.
+TEST_F(TrackBag, StampsRepeatingOrSlightlyBehindAreDroppedAJumpBackResets) {
   BagSpec spec;
   spec.frames = 12;
   for (int i = 0; i < spec.frames; ++i) spec.stamps.push_back(1000.0 + i / 30.0);
+  spec.stamps[3] = spec.stamps[2] - 0.005;  // slightly behind
   spec.stamps[5] = spec.stamps[4];          // repeated
-  spec.stamps[9] = spec.stamps[8] - 1.0;    // backwards
+  spec.stamps[9] = spec.stamps[8] - 2.0;    // a jump back
   const std::string out = path("out_backwards");
   const ToolRun r = run("--bag " + quote(makeBag("backwards.bag", spec)) + " --out-dir " + quote(out));
   ASSERT_EQ(r.status, 0) << r.err;
-  // Frames 5 and 9 reset the analysis (and frame 10, after the backwards jump,
-  // is forwards again). One warning line per reason with its count; the
-  // counts add up to the 2 resets.
-  int resets = 0;
-  for (const std::string& line : r.errLines()) {
-    const std::string prefix = "track_bag: warning: motion analysis reset ";
-    ASSERT_EQ(line.rfind(prefix, 0), 0u) << line;
-    resets += std::stoi(line.substr(prefix.size()));
-  }
-  EXPECT_EQ(resets, 2) << r.err;
+  ASSERT_EQ(r.errLines().size(), 2u) << r.err;
+  EXPECT_EQ(r.errLines()[0].rfind("track_bag: warning: motion analysis reset 1 time", 0), 0u) << r.err;
+  EXPECT_EQ(r.errLines()[1].rfind("track_bag: warning: 2 frame(s) dropped by the time rules (1 repeated stamps, 1 "
+                                  "slightly behind the newest; first: frame 3: ",
+                                  0),
+            0u)
+      << r.err;
+  const nlohmann::json j = nlohmann::json::parse(readFile(out + "/summary.json"));
+  EXPECT_EQ(j["frames_dropped"]["duplicate_stamp"], 1);
+  EXPECT_EQ(j["frames_dropped"]["stamp_behind"], 1);
+  // Frames 3 and 5 are not written; frame 9 (the 8th written) is, its
+  // analysis restarted.
   const auto rows = readCsv(out + "/camera_motion.csv");
-  ASSERT_EQ(rows.size(), 1u + spec.frames);
-  EXPECT_EQ(rows[1 + 9][0], formatFixed(ros::Time(spec.stamps[9]).toSec(), 9));
-  EXPECT_EQ(rows[1 + 5][1], "invalid");
-  EXPECT_EQ(rows[1 + 9][1], "invalid");
+  ASSERT_EQ(rows.size(), 1u + spec.frames - 2);
+  EXPECT_EQ(rows[1 + 7][0], formatFixed(ros::Time(spec.stamps[9]).toSec(), 9));
+  EXPECT_EQ(rows[1 + 7][1], "invalid");
+  EXPECT_NE(rows[1 + 3][1], "invalid");  // frame 4 follows frame 2: no restart
 }
 
 TEST_F(TrackBag, FrameSizeOtherThanCameraInfoWarnsOnceAndUsesTheFieldOfView) {

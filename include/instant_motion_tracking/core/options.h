@@ -30,6 +30,7 @@ struct PipelineOptions {
   double cache_seconds = 10.0;
   double default_hfov_deg = 60.0;
   bool image_rectified = false;
+  double time_jump_reset_seconds = 1.0;
   MotionAnalysisOptions motion_analysis;
   RegionTrackerOptions region_tracking;
   PlanarTargetOptions planar_tracking;
@@ -45,6 +46,9 @@ struct PipelineOptions {
     v("image_rectified", image_rectified,
       "true: images already rectified (image_rect): camera_info's P is used, D ignored; false: "
       "camera_info's K and D (plumb_bob, rational_polynomial, equidistant honoured)");
+    v("time_jump_reset_seconds", time_jump_reset_seconds,
+      "s; a frame stamped this far or farther behind the newest restarts tracking (a bag loop, a restarted "
+      "driver); a frame with the newest's stamp, or less far behind, is dropped with a warning");
     v.section("motion_analysis", motion_analysis);
     v.section("region_tracking", region_tracking);
     v.section("planar_tracking", planar_tracking);

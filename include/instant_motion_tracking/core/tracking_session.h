@@ -35,6 +35,7 @@
 #include <array>
 #include <deque>
 #include <map>
+#include <limits>
 #include <memory>
 #include <optional>
 #include <string>
@@ -106,7 +107,21 @@ class TrackingSession {
 
   // Analyses one gray frame (CV_8UC1) and queues it for the trackers; returns
   // its motion data (to publish at once: it does not wait for the IMU).
+  // Time rules (analyze() and pushMotion() alike): a frame with the newest
+  // frame's stamp, or behind it by less than time_jump_reset_seconds, is
+  // dropped (not analysed, not tracked: lastDrop() says why, and the
+  // returned motion data is the newest frame's); one farther behind restarts
+  // tracking (a bag loop: lastAnalysisReset(), FrameResult::reset); a jump
+  // forward is a gap, tracked across.
   const MotionData& analyze(const cv::Mat& gray, double stamp);
+  // Why the last frame given was dropped ("" when it was not).
+  const std::string& lastDrop() const { return last_drop_; }
+  // Frames dropped by the time rules since construction: a repeated stamp,
+  // a stamp slightly behind the newest.
+  struct TimeDrops {
+    size_t duplicate = 0, behind = 0;
+  };
+  const TimeDrops& timeDrops() const { return time_drops_; }
   // Why the last analyze() restarted the motion analysis ("" when it did not).
   const std::string& lastAnalysisReset() const { return analyzer_.lastReset(); }
   // Queues motion data analysed elsewhere (a tracker nodelet fed by the
@@ -182,6 +197,11 @@ class TrackingSession {
   std::deque<Pending> pending_;
   std::vector<FrameResult> results_;
   MotionData last_motion_;
+  // The time rules (analyze()): true when the frame is to be dropped.
+  bool dropByTime(double stamp);
+  double newest_stamp_ = -std::numeric_limits<double>::infinity();
+  std::string last_drop_;
+  TimeDrops time_drops_;
   StageTimes times_;
   bool keep_images_ = false;
 };

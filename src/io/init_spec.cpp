@@ -1,5 +1,7 @@
 #include "instant_motion_tracking/io/init_spec.h"
 
+#include "instant_motion_tracking/core/planar/planar_target.h"
+
 #include <yaml-cpp/yaml.h>
 
 #include <algorithm>
@@ -131,20 +133,6 @@ class EntryReader {
   uint32_t id_ = 0;
 };
 
-// True when the quad turns the same way at every corner (strictly convex) and
-// that way is clockwise on screen (y down): TL, TR, BR, BL of a target seen
-// from its front.
-bool convexClockwise(const std::array<std::array<double, 2>, 4>& c) {
-  for (int i = 0; i < 4; ++i) {
-    const auto& a = c[i];
-    const auto& b = c[(i + 1) % 4];
-    const auto& d = c[(i + 2) % 4];
-    const double cross = (b[0] - a[0]) * (d[1] - b[1]) - (b[1] - a[1]) * (d[0] - b[0]);
-    if (!(cross > 0)) return false;
-  }
-  return true;
-}
-
 template <class Entry, class ReadFn>
 std::vector<Entry> readList(const YAML::Node& root, const char* list,
                             const std::vector<std::string>& keys, ReadFn read) {
@@ -196,13 +184,15 @@ InitSpec parseRoot(const YAML::Node& root) {
           r.fail("corners must have 4 points (TL, TR, BR, BL), got " + std::to_string(c.size()));
         for (size_t i = 0; i < 4; ++i)
           e->corners[i] = r.numbers<2>(c[i], "corners[" + std::to_string(i) + "]");
-        if (!convexClockwise(e->corners))
-          r.fail("corners must form a convex quadrilateral listed TL, TR, BR, BL (clockwise in "
-                 "the image)");
         e->size = r.numbers<2>(r.field("size"), "size");
         if (e->size[0] <= 0 || e->size[1] <= 0)
           r.fail("size must be positive, got " + shortest(e->size[0]) + " x " +
                  shortest(e->size[1]) + " m");
+        // The same check as add_planar_target's (one validator for every door).
+        std::array<cv::Point2d, 4> quad;
+        for (size_t i = 0; i < 4; ++i) quad[i] = cv::Point2d(e->corners[i][0], e->corners[i][1]);
+        if (const std::string why = validateTargetRequest(quad, e->size[0], e->size[1]); !why.empty())
+          r.fail("corners: " + why);
       });
   spec.anchors = readList<AnchorInit>(
       root, "anchors", {"id", "stamp", "point", "depth"}, [](const EntryReader& r, AnchorInit* e) {

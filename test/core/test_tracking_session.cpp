@@ -11,6 +11,7 @@
 
 #include <gtest/gtest.h>
 
+#include <array>
 #include <cmath>
 #include <cstdio>
 #include <functional>
@@ -408,6 +409,25 @@ TEST(TrackingSession, ItemsAreRefusedWithAMessage) {
   ASSERT_TRUE(s.seekRegions(0, {}, &states, &err)) << err;
   EXPECT_EQ(states.size(), 1u);
   EXPECT_FALSE(s.removeRegion(AnchorManager::kAnchorRegionBase, &err));
+  // Items beyond what can be tracked (issue 16: these were accepted and
+  // carried into the output): sizes, depths, places.
+  for (const cv::Rect2d& box : {cv::Rect2d(0, 0, 1e300, 1e300), cv::Rect2d(10, 10, 1e-6, 1e-6),
+                                cv::Rect2d(10, 10, 1.5, 40), cv::Rect2d(0, 0, 320 * 5, 50)}) {
+    err.clear();
+    EXPECT_FALSE(s.addRegion(0, 0, box, &id, &err)) << box;
+    EXPECT_NE(err.find("box size"), std::string::npos) << err;
+  }
+  for (const double depth : {3e38, 1e-30, 2e4}) {
+    err.clear();
+    EXPECT_FALSE(s.addAnchor(0, 0, cv::Point2d(160, 120), depth, &id, &err)) << depth;
+    EXPECT_NE(err.find("depth must be"), std::string::npos) << err;
+  }
+  err.clear();
+  const std::array<cv::Point2d, 4> far = {cv::Point2d(1e6, 1e6), cv::Point2d(1e6 + 100, 1e6),
+                                          cv::Point2d(1e6 + 100, 1e6 + 100), cv::Point2d(1e6, 1e6 + 100)};
+  EXPECT_FALSE(s.addPlanarTarget(0, 0, far, 0.2, 0.2, &id, &err));
+  EXPECT_NE(err.find("outside the 320x240 image"), std::string::npos) << err;
+  EXPECT_EQ(s.regionCount(), 1u);
   // Time going back (by time_jump_reset_seconds or more) clears the items,
   // and the result says why.
   s.analyze(cv::Mat(240, 320, CV_8UC1, cv::Scalar(128)), 0.0);
@@ -416,6 +436,21 @@ TEST(TrackingSession, ItemsAreRefusedWithAMessage) {
   EXPECT_FALSE(results.back().reset.empty());
   EXPECT_EQ(s.regionCount(), 0u);
   EXPECT_EQ(s.anchorCount(), 0u);
+}
+
+// region_tracking.max_regions caps the regions (an INIT.yaml with 177k of
+// them took 64 s and 2.6 GB for 45 frames).
+TEST(TrackingSession, RegionsBeyondMaxRegionsAreRefused) {
+  PipelineOptions o;
+  o.region_tracking.max_regions = 3;
+  TrackingSession s(o, TrackingSession::Mode::kLive);
+  s.analyze(cv::Mat(240, 320, CV_8UC1, cv::Scalar(128)), 1.0);
+  uint32_t id;
+  std::string err;
+  for (int i = 0; i < 3; ++i) EXPECT_TRUE(s.addRegion(0, 0, cv::Rect2d(10 + 20 * i, 10, 15, 15), &id, &err)) << err;
+  EXPECT_FALSE(s.addRegion(0, 0, cv::Rect2d(100, 10, 15, 15), &id, &err));
+  EXPECT_NE(err.find("max_regions"), std::string::npos) << err;
+  EXPECT_EQ(s.regionCount(), 3u);
 }
 
 }  // namespace

@@ -281,9 +281,14 @@ bool AnchorManager::add(uint32_t id, double stamp, const cv::Point2d& uv, double
     *error = "pixel (" + num(uv.x) + ", " + num(uv.y) + ") has a NaN or infinite value";
     return false;
   }
-  if (!std::isfinite(depth) || depth < 0) {
-    *error = "depth must be positive (0 = the default " + num(options_.default_depth) +
-             " m), got " + num(depth);
+  if (!std::isfinite(depth) || depth < 0 || (depth > 0 && (depth < kMinDepth || depth > kMaxDepth))) {
+    *error = "depth must be positive and within " + num(kMinDepth) + " .. " + num(kMaxDepth) + " m (0 = the default " +
+             num(options_.default_depth) + " m), got " + num(depth);
+    return false;
+  }
+  if (anchors_.size() >= kMaxAnchors) {
+    *error = "already " + std::to_string(anchors_.size()) + " anchors (at most " + std::to_string(kMaxAnchors) +
+             "): remove some first";
     return false;
   }
   if (!std::isfinite(stamp)) {

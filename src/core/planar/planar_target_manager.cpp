@@ -1,5 +1,7 @@
 #include "instant_motion_tracking/core/planar/planar_target_manager.h"
 
+#include <algorithm>
+
 #include "option_checker.h"
 
 namespace imt {
@@ -59,6 +61,25 @@ bool PlanarTargetManager::add(uint32_t id, double stamp, const std::array<cv::Po
   }
   uint64_t seq;
   if (!cache.find(stamp, &seq, error)) return false;
+  // Given where it is seen: at least partly inside the image.
+  const cv::Size size = cache.imageSize();
+  double x0 = corners[0].x, x1 = x0, y0 = corners[0].y, y1 = y0;
+  for (const cv::Point2d& c : corners) {
+    x0 = std::min(x0, c.x);
+    x1 = std::max(x1, c.x);
+    y0 = std::min(y0, c.y);
+    y1 = std::max(y1, c.y);
+  }
+  if (!(x1 > 0 && y1 > 0 && x0 < size.width && y0 < size.height)) {
+    *error = "corners lie entirely outside the " + std::to_string(size.width) + "x" + std::to_string(size.height) +
+             " image";
+    return false;
+  }
+  if (targets_.size() >= kMaxTargets) {
+    *error = "already " + std::to_string(targets_.size()) + " planar targets (at most " +
+             std::to_string(kMaxTargets) + "): remove some first";
+    return false;
+  }
   if (id == 0) {
     id = 1;
     while (targets_.count(id)) ++id;

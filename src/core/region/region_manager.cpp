@@ -133,6 +133,18 @@ bool RegionManager::add(uint32_t id, double stamp, const cv::Rect2d& box, uint32
              std::to_string(size.height) + " image";
     return false;
   }
+  // Sizes a tracker can follow: a few pixels to a few image sizes.
+  if (box.width < kMinBoxSide || box.height < kMinBoxSide || box.width > kMaxBoxImages * size.width ||
+      box.height > kMaxBoxImages * size.height) {
+    *error = "box size " + std::to_string(box.width) + " x " + std::to_string(box.height) + " px is outside " +
+             std::to_string(kMinBoxSide) + " px .. " + std::to_string(kMaxBoxImages) + " times the " +
+             std::to_string(size.width) + "x" + std::to_string(size.height) + " image";
+    return false;
+  }
+  if (regions_.size() >= static_cast<size_t>(options_.max_regions)) {
+    *error = "already " + std::to_string(regions_.size()) + " regions (region_tracking.max_regions): remove some first";
+    return false;
+  }
   if (id == 0) {
     id = 1;
     while (regions_.count(id)) ++id;

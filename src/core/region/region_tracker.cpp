@@ -240,6 +240,7 @@ std::string RegionTrackerOptions::validate() const {
   c.inRange("reacquire_score", reacquire_score, 0.0, 1.0);
   c.atLeast("reacquire_interval", reacquire_interval, 0);
   c.atLeast("appearance_budget", appearance_budget, 0);
+  c.atLeast("max_regions", max_regions, 1);
   return c.error();
 }
 

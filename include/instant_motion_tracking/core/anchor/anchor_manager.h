@@ -129,6 +129,11 @@ class AnchorManager {
   // the last fit from the video (none before one had turns to work with).
   double timeOffset() const { return imu_.timeOffset(); }
   const std::optional<TimeOffsetFit>& timeOffsetFit() const { return time_offset_fit_; }
+  // Anchors add() accepts: depth 0 (the default) or in [kMinDepth, kMaxDepth]
+  // m, at most kMaxAnchors at once (each tracks a region).
+  static constexpr double kMinDepth = 0.01;
+  static constexpr double kMaxDepth = 1e4;
+  static constexpr size_t kMaxAnchors = 256;
   static constexpr double kRotationUpdateDeg = 0.2;
   static constexpr double kRotationDisagreementDeg = 5.0;
   // Appends an IMU sample (stamp order). kDropped with *why for NaN values or

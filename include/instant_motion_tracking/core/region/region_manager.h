@@ -33,6 +33,9 @@ namespace imt {
 
 class RegionManager {
  public:
+  // Boxes add() accepts: sides from kMinBoxSide px to kMaxBoxImages times the image's.
+  static constexpr double kMinBoxSide = 2.0;
+  static constexpr double kMaxBoxImages = 4.0;
   // Throws std::invalid_argument on invalid options (validate()).
   RegionManager(const RegionTrackerOptions& options, double cache_seconds);
 

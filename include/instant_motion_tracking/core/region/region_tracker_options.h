@@ -48,6 +48,7 @@ struct RegionTrackerOptions {
   double reacquire_score = 0.75;
   int reacquire_interval = 5;
   int appearance_budget = 8;
+  int max_regions = 1000;
 
   template <class V>
   void visit(V& v) {
@@ -112,6 +113,7 @@ struct RegionTrackerOptions {
       "regions whose look is checked per frame, so the cost stays bounded with many regions: with more regions, "
       "one the features carry firmly is checked on its turn, every ceil(regions / budget) frames; weak, doubtful "
       "and lost ones on every frame (0 = every region on every frame)");
+    v("max_regions", max_regions, "regions tracked at most; add_region and INIT.yaml are refused beyond");
   }
   std::string validate() const;
   // The tracker reads the frames' images (own features or appearance).

@@ -12,6 +12,7 @@
 //   make -C _build benchmarks && taskset -c 0 _build/benchmark/benchmark_region_real [--ours-only] [--no-appearance] [--set option=value] [--trace] [--starts N] [sequence...]
 #include "instant_motion_tracking/core/tracking_session.h"
 #include "instant_motion_tracking/io/config.h"
+#include "set_option.h"
 
 #include "../test/box_sequence.h"
 
@@ -147,13 +148,7 @@ int main(int argc, char** argv) {
       g_config.pipeline.region_tracking.region_features = 0;
     }
     else if (a == "--set" && i + 1 < argc) {
-      std::string kv = argv[++i], err;
-      const size_t eq = kv.find('=');
-      if (eq != std::string::npos) kv.replace(eq, 1, ": ");
-      if (!imt::loadConfigYaml("region_tracking: {" + kv + "}", std::string("--set ") + argv[i], &g_config, &err)) {
-        std::fprintf(stderr, "%s\n", err.c_str());
-        return 2;
-      }
+      if (!imt::bench::setRegionOption(argv[++i], &g_config)) return 2;
     }
     else if (a == "--trace") g_trace = ours_only = true;
     else if (a == "--starts" && i + 1 < argc) {

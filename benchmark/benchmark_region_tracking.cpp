@@ -13,6 +13,7 @@
 #include "../test/box_metrics.h"
 #include "instant_motion_tracking/core/tracking_session.h"
 #include "instant_motion_tracking/io/config.h"
+#include "set_option.h"
 #include "instant_motion_tracking/sim/scene.h"
 
 #include <opencv2/imgproc.hpp>
@@ -67,13 +68,7 @@ int main(int argc, char** argv) {
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     if (a == "--set" && i + 1 < argc) {
-      std::string kv = argv[++i], err;
-      const size_t eq = kv.find('=');
-      if (eq != std::string::npos) kv.replace(eq, 1, ": ");
-      if (!imt::loadConfigYaml("region_tracking: {" + kv + "}", std::string("--set ") + argv[i], &config, &err)) {
-        std::fprintf(stderr, "%s\n", err.c_str());
-        return 2;
-      }
+      if (!imt::bench::setRegionOption(argv[++i], &config)) return 2;
     } else {
       seconds = std::atof(argv[i]);
     }

@@ -2,6 +2,7 @@
 
 #include "option_checker.h"
 #include "region_features.h"
+#include "region_geometry.h"
 
 #include <Eigen/Dense>
 
@@ -12,6 +13,10 @@
 
 namespace imt {
 namespace {
+
+using region_geometry::boxAt;
+using region_geometry::centre;
+using region_geometry::fractionInside;
 
 // One motion vector in the tracking direction: src in the state's frame, dst
 // in the frame being tracked into.
@@ -88,11 +93,6 @@ Eigen::Vector2d applyH(const Eigen::Matrix3d& H, const Eigen::Vector2d& p) {
   return q.hnormalized();
 }
 
-// The box of size w x h centred on c.
-cv::Rect2d boxAt(const Eigen::Vector2d& c, double w, double h) {
-  return cv::Rect2d(c.x() - w / 2, c.y() - h / 2, w, h);
-}
-
 // Box moved by a homography: its centre is mapped, its size scaled by the
 // local area change of H at the centre.
 cv::Rect2d moveBox(const cv::Rect2d& box, const Eigen::Matrix3d& H) {
@@ -113,16 +113,6 @@ cv::Rect2d moveBox(const cv::Rect2d& box, const LocalModel& m) {
   return boxAt(c2, s * box.width, s * box.height);
 }
 
-Eigen::Vector2d centre(const cv::Rect2d& b) { return {b.x + b.width / 2, b.y + b.height / 2}; }
-
-// `b` with the aspect (width / height) `aspect` and the same centre and area;
-// `b` itself when the aspect is unknown (0).
-cv::Rect2d withAspect(const cv::Rect2d& b, double aspect) {
-  if (!(aspect > 0) || !(b.height > 0)) return b;
-  const double k = std::sqrt(aspect / (b.width / b.height));
-  return boxAt(centre(b), k * b.width, b.height / k);
-}
-
 // A region that loses its features coasts on its own motion (below) only
 // when at least this fraction of its box is inside the image.
 constexpr double kMinInsideToCoast = 0.75;
@@ -138,43 +128,8 @@ double nextFrameInterval(double usual, double interval, double g) {
   return 0.9 * usual + 0.1 * interval;
 }
 
-double fractionInside(const cv::Rect2d& box, cv::Size size) {
-  const cv::Rect2d inter = box & cv::Rect2d(0, 0, size.width, size.height);
-  return box.area() > 0 ? inter.area() / box.area() : 0;
-}
-
 bool contains(const std::vector<uint32_t>& sorted, uint32_t id) {
   return std::binary_search(sorted.begin(), sorted.end(), id);
-}
-
-// The searches a region lost for `n` frames makes on that frame (interval
-// I = reacquire_interval): around its last place on every frame and over the
-// whole frame every I frames, for the first 2 I frames (an occluder passing,
-// a short turn away); then both every I frames up to 30 I (5 s at 30 frames/s
-// with I = 5), then every 4 I. A region lost for good thus costs a search
-// every 4 I frames, not every frame. `k` counts the whole-frame searches
-// (which look they use alternates with it). I = 0: around its last place on
-// every frame, never over the whole frame.
-struct LostSearch {
-  bool local = false, whole = false;
-  int k = 0;
-};
-LostSearch lostSearchAt(int n, int interval) {
-  LostSearch s;
-  if (interval <= 0) {
-    s.local = true;
-    return s;
-  }
-  const int i = interval, m = n - 1;
-  if (m < 30 * i) {
-    s.whole = m % i == 0;
-    s.local = n <= 2 * i || s.whole;
-    s.k = m / i;
-  } else {
-    s.whole = s.local = (m - 30 * i) % (4 * i) == 0;
-    s.k = 30 + (m - 30 * i) / (4 * i);
-  }
-  return s;
 }
 
 }  // namespace
@@ -244,15 +199,6 @@ std::string RegionTrackerOptions::validate() const {
   return c.error();
 }
 
-int RegionTracker::lookInterval(const RegionTrackerOptions& options, size_t regions) {
-  if (options.appearance_budget <= 0 || regions <= static_cast<size_t>(options.appearance_budget)) return 1;
-  return static_cast<int>((regions + options.appearance_budget - 1) / options.appearance_budget);
-}
-
-double RegionTracker::lookConfidence(double score) const {
-  return std::clamp((score - options_.appearance_lost_score) / (1.0 - options_.appearance_lost_score), 0.0, 1.0);
-}
-
 bool RegionTracker::usable(const cv::Mat& image) const {
   return !image.empty() && image.type() == CV_8UC1 && image.size() == image_size_;
 }
@@ -312,53 +258,6 @@ RegionState RegionTracker::step(const RegionState& state, const MotionData& md, 
                                     std::count_if(next.outliers.begin(), next.outliers.end(), motion)));
   }
   return next;
-}
-
-void RegionTracker::reacquire(RegionState* next, const cv::Mat& image) const {
-  const RegionTrackerOptions& o = options_;
-  next->lost_frames += 1;
-  // Around its last place with its latest look; over the whole frame with
-  // its latest look and its look at placement in turn (the latest may have
-  // taken on what covered it), the look at placement also tried around its
-  // last place then. Its size changed unseen while it was lost: the wider
-  // scale range. When: lostSearchAt(); when more regions than
-  // appearance_budget share the frames, the searches around its last place
-  // between the whole-frame ones come on its turns only (staggered by id).
-  LostSearch when = lostSearchAt(next->lost_frames, o.reacquire_interval);
-  when.local = when.whole || (when.local && (next->lost_frames + next->id) % look_interval_ == 0);
-  if (!when.local) return;
-  const auto& scales = RegionAppearance::lostScales();
-  AppearanceMatch m = next->appearance.match(image, next->box, 1.0, scales);
-  if (when.whole && (!m.found || m.score < o.reacquire_score)) {
-    const bool first = when.k % 2 == 1 && next->first_appearance.valid();
-    // The look at placement, at the aspect it was taken at.
-    const cv::Rect2d placed_box = withAspect(next->box, next->placed_aspect);
-    if (first) {
-      const AppearanceMatch f = next->first_appearance.match(image, placed_box, 1.0, scales);
-      if (f.found && f.score > m.score) m = f;
-    }
-    if (!m.found || m.score < o.reacquire_score) {
-      const AppearanceMatch a = first ? next->first_appearance.matchAnywhere(image, placed_box)
-                                      : next->appearance.matchAnywhere(image, next->box);
-      if (a.found && a.score > m.score) m = a;
-    }
-  }
-  if (!m.found || m.score < o.reacquire_score) return;
-  char why[96];
-  std::snprintf(why, sizeof(why), "re-acquired by its appearance (correlation %.2f) after %d frames lost", m.score,
-                next->lost_frames);
-  const RegionAppearance look = next->appearance, first = next->first_appearance;
-  const double interval = next->frame_interval, placed_aspect = next->placed_aspect;
-  *next = RegionState::start(next->id, m.box, next->stamp);
-  next->placed_aspect = placed_aspect;
-  next->appearance = look;
-  next->first_appearance = first;
-  next->frame_interval = interval;
-  next->appearance_score = m.score;
-  next->confidence = lookConfidence(m.score);
-  next->status = fractionInside(next->box, image_size_) < o.out_of_view_fraction ? RegionStatus::kOutOfView
-                                                                                 : RegionStatus::kTracked;
-  next->reason = why;
 }
 
 RegionState RegionTracker::stepMotion(const RegionState& state, const MotionData& md, Direction dir,

@@ -1,9 +1,11 @@
 // The parts of the region tracker that read the frames' pixels: the region's
-// own features topped up, its look taken and checked after each motion step
-// (region_tracker.h); and the log of regions lost and tracked again.
+// own features topped up, its look taken and checked after each motion step,
+// a lost region searched for (region_tracker.h); and the log of regions lost
+// and tracked again.
 #include "instant_motion_tracking/core/region/region_tracker.h"
 
 #include "region_features.h"
+#include "region_geometry.h"
 
 #include <algorithm>
 #include <cmath>
@@ -11,6 +13,48 @@
 #include <vector>
 
 namespace imt {
+namespace {
+
+// The searches a region lost for `n` frames makes on that frame (interval
+// I = reacquire_interval): around its last place on every frame and over the
+// whole frame every I frames, for the first 2 I frames (an occluder passing,
+// a short turn away); then both every I frames up to 30 I (5 s at 30 frames/s
+// with I = 5), then every 4 I. A region lost for good thus costs a search
+// every 4 I frames, not every frame. `k` counts the whole-frame searches
+// (which look they use alternates with it). I = 0: around its last place on
+// every frame, never over the whole frame.
+struct LostSearch {
+  bool local = false, whole = false;
+  int k = 0;
+};
+LostSearch lostSearchAt(int n, int interval) {
+  LostSearch s;
+  if (interval <= 0) {
+    s.local = true;
+    return s;
+  }
+  const int i = interval, m = n - 1;
+  if (m < 30 * i) {
+    s.whole = m % i == 0;
+    s.local = n <= 2 * i || s.whole;
+    s.k = m / i;
+  } else {
+    s.whole = s.local = (m - 30 * i) % (4 * i) == 0;
+    s.k = 30 + (m - 30 * i) / (4 * i);
+  }
+  return s;
+}
+
+}  // namespace
+
+int RegionTracker::lookInterval(const RegionTrackerOptions& options, size_t regions) {
+  if (options.appearance_budget <= 0 || regions <= static_cast<size_t>(options.appearance_budget)) return 1;
+  return static_cast<int>((regions + options.appearance_budget - 1) / options.appearance_budget);
+}
+
+double RegionTracker::lookConfidence(double score) const {
+  return std::clamp((score - options_.appearance_lost_score) / (1.0 - options_.appearance_lost_score), 0.0, 1.0);
+}
 
 std::string RegionLossLog::update(const RegionState& s) {
   const bool lost = s.status == RegionStatus::kLost;
@@ -132,6 +176,54 @@ void RegionTracker::checkAppearance(const RegionState& state, RegionState* next,
                      " for " + std::to_string(patience) + " frames)";
     }
   }
+}
+
+void RegionTracker::reacquire(RegionState* next, const cv::Mat& image) const {
+  const RegionTrackerOptions& o = options_;
+  next->lost_frames += 1;
+  // Around its last place with its latest look; over the whole frame with
+  // its latest look and its look at placement in turn (the latest may have
+  // taken on what covered it), the look at placement also tried around its
+  // last place then. Its size changed unseen while it was lost: the wider
+  // scale range. When: lostSearchAt(); when more regions than
+  // appearance_budget share the frames, the searches around its last place
+  // between the whole-frame ones come on its turns only (staggered by id).
+  LostSearch when = lostSearchAt(next->lost_frames, o.reacquire_interval);
+  when.local = when.whole || (when.local && (next->lost_frames + next->id) % look_interval_ == 0);
+  if (!when.local) return;
+  const auto& scales = RegionAppearance::lostScales();
+  AppearanceMatch m = next->appearance.match(image, next->box, 1.0, scales);
+  if (when.whole && (!m.found || m.score < o.reacquire_score)) {
+    const bool first = when.k % 2 == 1 && next->first_appearance.valid();
+    // The look at placement, at the aspect it was taken at.
+    const cv::Rect2d placed_box = region_geometry::withAspect(next->box, next->placed_aspect);
+    if (first) {
+      const AppearanceMatch f = next->first_appearance.match(image, placed_box, 1.0, scales);
+      if (f.found && f.score > m.score) m = f;
+    }
+    if (!m.found || m.score < o.reacquire_score) {
+      const AppearanceMatch a = first ? next->first_appearance.matchAnywhere(image, placed_box)
+                                      : next->appearance.matchAnywhere(image, next->box);
+      if (a.found && a.score > m.score) m = a;
+    }
+  }
+  if (!m.found || m.score < o.reacquire_score) return;
+  char why[96];
+  std::snprintf(why, sizeof(why), "re-acquired by its appearance (correlation %.2f) after %d frames lost", m.score,
+                next->lost_frames);
+  const RegionAppearance look = next->appearance, first = next->first_appearance;
+  const double interval = next->frame_interval, placed_aspect = next->placed_aspect;
+  *next = RegionState::start(next->id, m.box, next->stamp);
+  next->placed_aspect = placed_aspect;
+  next->appearance = look;
+  next->first_appearance = first;
+  next->frame_interval = interval;
+  next->appearance_score = m.score;
+  next->confidence = lookConfidence(m.score);
+  next->status = region_geometry::fractionInside(next->box, image_size_) < o.out_of_view_fraction
+                     ? RegionStatus::kOutOfView
+                     : RegionStatus::kTracked;
+  next->reason = why;
 }
 
 }  // namespace imt

@@ -68,7 +68,8 @@ bool AnchorOptions::rotationCamImu(Eigen::Quaterniond* q) const {
 std::string AnchorOptions::validate() const {
   OptionChecker c("anchors");
   c.check(region_size > 0.01 && region_size <= 1.0, "region_size", "must be in (0.01, 1]", region_size);
-  c.check(default_depth > 0 && default_depth <= 1e4, "default_depth", "must be in (0, 10000] m", default_depth);
+  c.check(default_depth > 0 && default_depth <= AnchorManager::kMaxDepth, "default_depth", "must be in (0, 10000] m",
+          default_depth);
   c.inRange("imu_wait_seconds", imu_wait_seconds, 0.0, 10.0);
   c.check(imu_reset_seconds > 0 && imu_reset_seconds <= 3600, "imu_reset_seconds", "must be in (0, 3600]",
           imu_reset_seconds);

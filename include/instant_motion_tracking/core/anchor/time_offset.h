@@ -38,7 +38,9 @@ namespace imt {
 struct TimeOffsetFit {
   bool found = false;        // a clear peak inside the search range, over enough turns
   double offset = 0;         // s; IMU stamp = image stamp + offset
-  double correlation = -1;   // Pearson correlation of the angles at the offset
+  // At the offset: Pearson correlation of the angles' changes from one frame
+  // interval to the next (of the angles themselves when too few are consecutive).
+  double correlation = -1;
   double at_zero = -1;       // the same at offset 0 (for reports)
   int turns = 0;             // frame intervals compared
 };

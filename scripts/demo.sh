@@ -34,19 +34,7 @@ if [ "$rviz" = true ] && [ -z "${DISPLAY:-}" ]; then
   exit 2
 fi
 source "$(dirname "$0")/setup.sh"
-if [ "$build" = true ]; then
-  imt_install
-  imt_env
-  imt_build all
-else
-  imt_env
-  [ -f "$IMT_BUILD_DIR/devel/setup.bash" ] ||
-    { echo "demo.sh: --no-build: no build in $IMT_BUILD_DIR (set IMT_BUILD_DIR)" >&2; exit 2; }
-  set +u
-  # shellcheck disable=SC1091
-  source "$IMT_BUILD_DIR/devel/setup.bash"
-  set -u
-fi
+imt_prepare "$build" demo.sh || exit 2
 out=${out:-$IMT_ROOT/demo_output}
 mkdir -p "$out"
 out=$(cd "$out" && pwd)  # roslaunch needs an absolute bag path
@@ -73,16 +61,6 @@ fi
 # ROS_MASTER_URI set for them only; cleanup stops each group: SIGINT (roslaunch
 # and roscore shut their nodes down), then SIGTERM, then SIGKILL.
 pids=() live_pid=""
-stop_group() {
-  local pid=$1 i
-  kill -0 "$pid" 2>/dev/null || return 0
-  kill -INT -- "-$pid" 2>/dev/null || true
-  for i in $(seq 50); do kill -0 "$pid" 2>/dev/null || break; sleep 0.2; done
-  kill -TERM -- "-$pid" 2>/dev/null || true
-  for i in $(seq 25); do kill -0 "$pid" 2>/dev/null || break; sleep 0.2; done
-  kill -KILL -- "-$pid" 2>/dev/null || true
-  wait "$pid" 2>/dev/null || true
-}
 cleanup() {
   local i
   if [ -n "$live_pid" ] && kill -0 "$live_pid" 2>/dev/null; then
@@ -90,8 +68,7 @@ cleanup() {
     wait "$live_pid" 2>/dev/null || true
   fi
   live_pid=""
-  for ((i = ${#pids[@]} - 1; i >= 0; i--)); do stop_group "${pids[i]}"; done
-  pids=()
+  imt_stop_groups pids
 }
 trap cleanup EXIT
 trap 'exit 130' INT
@@ -101,20 +78,8 @@ if [ "$live" = true ]; then
   live_dir=$out/live
   rm -rf "$live_dir"
   mkdir -p "$live_dir/logs"
-  port=$(/usr/bin/python3 -c 'import socket; s = socket.socket(); s.bind(("localhost", 0)); print(s.getsockname()[1])')
-  master=http://localhost:$port
-  child_env=(env ROS_MASTER_URI="$master" ROS_LOG_DIR="$live_dir/logs")
-  imt_log "live graph: roscore on port $port (logs: $live_dir/logs)"
-  setsid "${child_env[@]}" roscore -p "$port" >"$live_dir/logs/roscore.out" 2>&1 &
-  pids+=($!)
-  for _ in $(seq 100); do
-    "${child_env[@]}" /usr/bin/python3 -c 'import rosgraph, sys; sys.exit(not rosgraph.is_master_online())' \
-      2>/dev/null && break
-    kill -0 "${pids[0]}" 2>/dev/null || fail "roscore exited: $(tail -n 3 "$live_dir/logs/roscore.out")"
-    sleep 0.2
-  done
-  "${child_env[@]}" /usr/bin/python3 -c 'import rosgraph, sys; sys.exit(not rosgraph.is_master_online())' ||
-    fail "roscore did not come up on port $port within 20 s (see $live_dir/logs/roscore.out)"
+  imt_start_roscore "$live_dir/logs" pids || fail "the live graph's roscore did not start"
+  child_env=("${IMT_CHILD_ENV[@]}")
 
   imt_log "live graph: roslaunch replay.launch (paused; rviz:=$rviz, rate $rate)"
   setsid "${child_env[@]}" roslaunch instant_motion_tracking replay.launch bag:="$out/$preset.bag" \

@@ -67,3 +67,74 @@ imt_build() {
   [ "$had_u" = 1 ] && set -u
   return 0
 }
+
+# --- a private ROS master for a live run (demo.sh, soak.sh) -------------------
+# imt_start_roscore LOGDIR PIDS_ARRAY: roscore on a free port in its own
+# process group (its pid appended to the array named PIDS_ARRAY), logs in
+# LOGDIR; sets IMT_CHILD_ENV (an env command line with ROS_MASTER_URI and
+# ROS_LOG_DIR for the children) and IMT_MASTER_PORT. Fails when the master
+# is not up within 20 s.
+imt_start_roscore() {
+  local logs=$1
+  local -n imt_pids_ref=$2
+  IMT_MASTER_PORT=$(/usr/bin/python3 -c 'import socket; s = socket.socket(); s.bind(("localhost", 0)); print(s.getsockname()[1])')
+  IMT_CHILD_ENV=(env ROS_MASTER_URI="http://localhost:$IMT_MASTER_PORT" ROS_LOG_DIR="$logs")
+  imt_log "roscore on port $IMT_MASTER_PORT (logs: $logs)"
+  setsid "${IMT_CHILD_ENV[@]}" roscore -p "$IMT_MASTER_PORT" >"$logs/roscore.out" 2>&1 &
+  local pid=$!
+  imt_pids_ref+=("$pid")
+  local _
+  for _ in $(seq 100); do
+    "${IMT_CHILD_ENV[@]}" /usr/bin/python3 -c 'import rosgraph, sys; sys.exit(not rosgraph.is_master_online())' \
+      2>/dev/null && return 0
+    kill -0 "$pid" 2>/dev/null || { imt_log "roscore exited: $(tail -n 3 "$logs/roscore.out")"; return 1; }
+    sleep 0.2
+  done
+  imt_log "roscore did not come up on port $IMT_MASTER_PORT within 20 s (see $logs/roscore.out)"
+  return 1
+}
+
+# imt_stop_group PID: stops a process group: SIGINT (roslaunch and roscore
+# shut their nodes down), then SIGTERM, then SIGKILL.
+imt_stop_group() {
+  local pid=$1 i
+  kill -0 "$pid" 2>/dev/null || return 0
+  kill -INT -- "-$pid" 2>/dev/null || true
+  for i in $(seq 50); do kill -0 "$pid" 2>/dev/null || break; sleep 0.2; done
+  kill -TERM -- "-$pid" 2>/dev/null || true
+  for i in $(seq 25); do kill -0 "$pid" 2>/dev/null || break; sleep 0.2; done
+  kill -KILL -- "-$pid" 2>/dev/null || true
+  wait "$pid" 2>/dev/null || true
+}
+
+# imt_stop_groups PIDS_ARRAY: stops each group, the last started first, and
+# empties the array.
+imt_stop_groups() {
+  local -n imt_groups_ref=$1
+  local i
+  for ((i = ${#imt_groups_ref[@]} - 1; i >= 0; i--)); do imt_stop_group "${imt_groups_ref[i]}"; done
+  imt_groups_ref=()
+}
+
+# imt_prepare true|false CALLER: with true, installs what is missing and
+# builds (imt_build all); with false (a --no-build run), uses the build in
+# IMT_BUILD_DIR as it is and fails, naming CALLER, when there is none. Either
+# way the workspace is sourced.
+imt_prepare() {
+  local build=$1 caller=$2
+  imt_env
+  if [ "$build" = true ]; then
+    imt_install
+    imt_build all
+    return
+  fi
+  [ -f "$IMT_BUILD_DIR/devel/setup.bash" ] ||
+    { echo "$caller: --no-build: no build in $IMT_BUILD_DIR (set IMT_BUILD_DIR)" >&2; return 2; }
+  local had_u=0
+  [[ $- == *u* ]] && had_u=1
+  set +u
+  # shellcheck disable=SC1091
+  source "$IMT_BUILD_DIR/devel/setup.bash"
+  [ "$had_u" = 1 ] && set -u
+  return 0
+}

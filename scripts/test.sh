@@ -2,7 +2,9 @@
 # Sets up (apt-get what is missing, build in _build/) and runs every test:
 # core/io/ROS gtests and the rostests. Prints a closing count line
 # "N passed, N failed, N skipped" and exits non-zero on any failure.
-# Extra arguments go to ctest (e.g. -R rostest, --output-on-failure is always on).
+# Extra arguments go to ctest (e.g. -R rostest, --output-on-failure is always on);
+# without them, a 3-minute soak of the live graph under load runs last
+# (scripts/soak.sh; IMT_SOAK_MINUTES=N to change, 0 to skip).
 set -euo pipefail
 source "$(dirname "$0")/setup.sh"
 imt_install
@@ -13,6 +15,28 @@ results="$IMT_BUILD_DIR/test_results"
 rm -rf "$results"
 status=0
 (cd "$IMT_BUILD_DIR" && ctest --output-on-failure -j"$(nproc)" "$@") || status=$?
+
+# The live graph under load for 3 minutes (scripts/soak.sh), after the other
+# tests (its busy loops would slow them); its verdict is one more test case.
+# IMT_SOAK_MINUTES=0 skips it (as do extra ctest arguments: a partial run).
+soak_minutes=${IMT_SOAK_MINUTES:-3}
+if [ $# -eq 0 ] && [ "$soak_minutes" -gt 0 ]; then
+  mkdir -p "$results/soak"
+  soak_status=0
+  "$IMT_ROOT/scripts/soak.sh" "$soak_minutes" --no-build --out "$IMT_BUILD_DIR/soak" \
+    >"$IMT_BUILD_DIR/soak.log" 2>&1 || soak_status=$?
+  cat "$IMT_BUILD_DIR/soak.log"
+  /usr/bin/python3 - "$results/soak/soak.xml" "$soak_status" "$soak_minutes" <<'PY'
+import sys
+from xml.sax.saxutils import escape
+path, status, minutes = sys.argv[1], int(sys.argv[2]), sys.argv[3]
+failure = "" if status == 0 else '<failure message="scripts/soak.sh %s failed (exit %d); see soak.log"/>' % (minutes, status)
+with open(path, "w") as f:
+    f.write('<testsuite name="soak" tests="1"><testcase classname="soak" name="LiveGraphUnderLoad%sMinutes">%s'
+            '</testcase></testsuite>\n' % (escape(minutes), failure))
+PY
+  [ "$soak_status" -eq 0 ] || status=1
+fi
 
 # Count test cases from the JUnit XML that gtest and rostest write (ctest
 # counts whole binaries). A binary that crashed before writing XML still

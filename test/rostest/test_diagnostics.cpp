@@ -12,6 +12,7 @@
 #include <diagnostic_msgs/DiagnosticArray.h>
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
+#include <nodelet/NodeletUnload.h>
 #include <ros/ros.h>
 
 #include <fstream>
@@ -133,6 +134,27 @@ TEST(Diagnostics, RatesLatencyAndItemsByStatus) {
   const std::string rotation = diag.value("anchor_tracker: anchors", "IMU-to-camera rotation");
   std::printf("anchor_tracker: IMU-to-camera rotation: %s\n", rotation.c_str());
   EXPECT_EQ(rotation.rfind("tf (video: ", 0), 0u) << rotation;
+
+  // graph_watchdog: every nodelet loaded and working ...
+  for (const char* nodelet : {"motion_analysis", "region_tracker", "planar_targets", "anchor_tracker"}) {
+    const std::string name = std::string("graph_watchdog: ") + nodelet;
+    ASSERT_TRUE(diag.has(name)) << name;
+    EXPECT_EQ(diag.latest[name].level, DiagnosticStatus::OK) << name << ": " << diag.latest[name].message;
+  }
+  // ... until one is unloaded behind its back (as a broken bond does): ERROR
+  // within a few periods (1 s each), naming it; the others stay OK.
+  nodelet::NodeletUnload unload;
+  unload.request.name = "/planar_targets";
+  ASSERT_TRUE(ros::service::call("/imt_manager/unload_nodelet", unload));
+  ASSERT_TRUE(unload.response.success);
+  const std::string gone = "graph_watchdog: planar_targets";
+  diag.latest.clear();
+  EXPECT_TRUE(spinUntil([&] { return diag.has(gone) && diag.latest[gone].level == DiagnosticStatus::ERROR; }, 5.0))
+      << (diag.has(gone) ? diag.latest[gone].message : "no verdict");
+  EXPECT_NE(diag.latest[gone].message.find("not loaded"), std::string::npos) << diag.latest[gone].message;
+  ASSERT_TRUE(diag.has("graph_watchdog: region_tracker"));
+  EXPECT_EQ(diag.latest["graph_watchdog: region_tracker"].level, DiagnosticStatus::OK)
+      << diag.latest["graph_watchdog: region_tracker"].message;
 }
 
 }  // namespace

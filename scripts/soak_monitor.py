@@ -1,0 +1,191 @@
+#!/usr/bin/env python3
+"""Watches the live graph during scripts/soak.sh and judges it.
+
+While a looped bag plays into launch/tracking.launch, this node:
+- adds the scene's items (scripts/demo_live.py's plan: INIT.yaml's regions, a
+  planar target and an anchor) through the services, again after each loop
+  (a loop's jump back in time resets every tracker);
+- counts, per minute of wall time, the frames in (the motion analysis's
+  processed and dropped frames, from /diagnostics) and the messages out on
+  motion_data, regions, planar_targets and anchors;
+- reads the manager's resident memory (/proc/<pid>/status VmRSS);
+- reads each nodelet's processing time (mean and max) and resets from
+  /diagnostics, and graph_watchdog's verdicts.
+
+It prints one line per minute and exits non-zero (with the reasons) when an
+output got no message in a minute, the manager's memory grew more than 20%
+after the second minute, or graph_watchdog reported a nodelet that is not
+loaded (or the manager died).
+
+  soak_monitor.py --minutes M --truth T.json --init INIT.yaml --manager-pid PID
+"""
+import argparse
+import os
+import sys
+import threading
+import time
+
+import yaml
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from demo_live import ADD_LAG_S, call_add, make_plan  # noqa: E402
+
+OUTPUTS = ["motion_data", "regions", "planar_targets", "anchors"]
+NODELETS = ["motion_analysis", "region_tracker", "planar_targets", "anchor_tracker"]
+RSS_GROWTH = 0.20  # allowed growth of the manager's memory after the second minute
+
+
+def rss_mb(pid):
+    try:
+        with open("/proc/%d/status" % pid) as f:
+            for line in f:
+                if line.startswith("VmRSS:"):
+                    return int(line.split()[1]) / 1024.0
+    except OSError:
+        return None
+    return None
+
+
+class Minute:
+    def __init__(self):
+        self.out = {o: 0 for o in OUTPUTS}
+        self.proc = {n: [0.0, 0, 0.0] for n in NODELETS}  # sum of means, reports, max
+        self.watchdog_errors = {}  # nodelet -> last reason
+
+
+class Monitor:
+    def __init__(self, args, plan):
+        import rospy
+        from diagnostic_msgs.msg import DiagnosticArray
+        self.lock = threading.Lock()
+        self.minute = Minute()
+        self.counters = {}  # (nodelet, key) -> latest cumulative value
+        self.latest_stamp = None
+        self.loop_start = None
+        self.plan = plan
+        self.pending = list(plan)
+        self.subs = [rospy.Subscriber(o, rospy.AnyMsg, self.on_output, o, queue_size=50) for o in OUTPUTS[1:]]
+        from instant_motion_tracking.msg import MotionData
+        self.subs.append(rospy.Subscriber("motion_data", MotionData, self.on_motion, queue_size=50))
+        self.subs.append(rospy.Subscriber("/diagnostics", DiagnosticArray, self.on_diagnostics, queue_size=100))
+
+    def on_output(self, _msg, name):
+        with self.lock:
+            self.minute.out[name] += 1
+
+    def on_motion(self, msg):
+        stamp = msg.header.stamp.to_sec()
+        with self.lock:
+            self.minute.out["motion_data"] += 1
+            if self.latest_stamp is not None and stamp < self.latest_stamp - 1.0:
+                self.pending = list(self.plan)  # a loop: the graph reset; add the items again
+            self.latest_stamp = stamp
+
+    def on_diagnostics(self, msg):
+        with self.lock:
+            for s in msg.status:
+                name, _, task = s.name.partition(": ")
+                values = {kv.key: kv.value for kv in s.values}
+                if name == "graph_watchdog" and s.level >= 2:
+                    self.minute.watchdog_errors[task] = s.message
+                if name not in NODELETS:
+                    continue
+                if task == "input":
+                    for key in ("frames", "dropped", "resets"):
+                        if key in values:
+                            self.counters[(name, key)] = int(values[key])
+                elif task == "processing" and "processing mean (ms)" in values:
+                    p = self.minute.proc[name]
+                    if s.message != "no frames in the period":
+                        p[0] += float(values["processing mean (ms)"])
+                        p[1] += 1
+                        p[2] = max(p[2], float(values["processing max (ms)"]))
+
+    def add_due_items(self):
+        import rospy
+        with self.lock:
+            latest = self.latest_stamp
+            due = [i for i in self.pending if latest is not None and i["stamp"] + ADD_LAG_S <= latest]
+            for i in due:
+                self.pending.remove(i)
+        for item in due:
+            ok, msg = call_add(item, rospy.Time.from_sec(item["stamp"]))
+            if not ok and "already" not in msg:
+                print("soak_monitor: %s id %d refused: %s" % (item["service"], item["id"], msg), flush=True)
+
+    def take_minute(self):
+        with self.lock:
+            m, self.minute = self.minute, Minute()
+            return m, dict(self.counters)
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--minutes", type=float, required=True)
+    ap.add_argument("--truth", required=True)
+    ap.add_argument("--init", required=True)
+    ap.add_argument("--manager-pid", type=int, required=True)
+    args = ap.parse_args()
+    import rospy
+    with open(args.truth) as f:
+        import json
+        truth = json.load(f)
+    with open(args.init) as f:
+        init = yaml.safe_load(f)
+    plan = make_plan(truth, init)
+    rospy.init_node("imt_soak_monitor", anonymous=True, disable_signals=True)
+    mon = Monitor(args, plan)
+    failures = []
+    rss2 = None
+    last = {}
+    t0 = time.monotonic()
+    minute = 0
+    print("| minute | frames in (dropped) | motion_data | regions | planar_targets | anchors | manager RSS (MB) "
+          "| processing mean/max (ms): motion, regions, planar, anchors | resets | watchdog |", flush=True)
+    print("|---|---|---|---|---|---|---|---|---|---|", flush=True)
+    while minute < args.minutes:
+        next_at = t0 + 60.0 * (minute + 1)
+        while time.monotonic() < next_at:
+            mon.add_due_items()
+            time.sleep(0.05)
+        minute += 1
+        m, counters = mon.take_minute()
+
+        def delta(nodelet, key):
+            v = counters.get((nodelet, key))
+            d = None if v is None else v - last.get((nodelet, key), 0)
+            return d
+        frames, dropped = delta("motion_analysis", "frames"), delta("motion_analysis", "dropped")
+        resets = delta("motion_analysis", "resets")
+        last = counters
+        rss = rss_mb(args.manager_pid)
+        proc = ", ".join("%.1f/%.0f" % (p[0] / p[1], p[2]) if p[1] else "-" for p in
+                         (m.proc[n] for n in NODELETS))
+        wd = "; ".join("%s: %s" % kv for kv in sorted(m.watchdog_errors.items())) or "OK"
+        print("| %d | %s (%s) | %s | %s | %s | %s | %s | %s | %s | %s |" % (
+            minute, frames, dropped, *(m.out[o] for o in OUTPUTS),
+            "gone" if rss is None else "%.1f" % rss, proc, resets, wd), flush=True)
+        if rss is None:
+            failures.append("minute %d: the manager (pid %d) is gone" % (minute, args.manager_pid))
+            break
+        for o in OUTPUTS:
+            if m.out[o] == 0:
+                failures.append("minute %d: no message on %s" % (minute, o))
+        if any("not loaded" in r or "does not answer" in r for r in m.watchdog_errors.values()):
+            failures.append("minute %d: graph_watchdog: %s" % (minute, wd))
+        if minute == 2:
+            rss2 = rss
+        elif rss2 and rss > (1 + RSS_GROWTH) * rss2:
+            failures.append("minute %d: manager RSS %.1f MB, more than %d%% over minute 2's %.1f MB" % (
+                minute, rss, RSS_GROWTH * 100, rss2))
+        if failures:
+            break
+    for f in failures:
+        print("soak: FAILED: " + f, flush=True)
+    if not failures:
+        print("soak: passed (%g minutes)" % args.minutes, flush=True)
+    return 1 if failures else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -58,7 +58,12 @@ imt_build() {
   make -C "$IMT_BUILD_DIR" -j"$(nproc)" --no-print-directory "$@" >"$IMT_BUILD_DIR/build.log" 2>&1 ||
     make -C "$IMT_BUILD_DIR" -j1 --no-print-directory "$@" >"$IMT_BUILD_DIR/build.log" 2>&1 ||
     { tail -n 60 "$IMT_BUILD_DIR/build.log" >&2; imt_log "build failed (full log: $IMT_BUILD_DIR/build.log)"; return 1; }
-  # The catkin setup scripts read unset variables (ROS_DISTRO): not under set -u.
+  imt_source_workspace
+}
+
+# Sources the build's devel/setup.bash. The catkin setup scripts read unset
+# variables (ROS_DISTRO): not under set -u.
+imt_source_workspace() {
   local had_u=0
   [[ $- == *u* ]] && had_u=1
   set +u
@@ -130,11 +135,5 @@ imt_prepare() {
   fi
   [ -f "$IMT_BUILD_DIR/devel/setup.bash" ] ||
     { echo "$caller: --no-build: no build in $IMT_BUILD_DIR (set IMT_BUILD_DIR)" >&2; return 2; }
-  local had_u=0
-  [[ $- == *u* ]] && had_u=1
-  set +u
-  # shellcheck disable=SC1091
-  source "$IMT_BUILD_DIR/devel/setup.bash"
-  [ "$had_u" = 1 ] && set -u
-  return 0
+  imt_source_workspace
 }

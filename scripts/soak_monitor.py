@@ -8,13 +8,14 @@ While a looped bag plays into launch/tracking.launch, this node:
 - counts, per minute of wall time, the frames in (the motion analysis's
   processed and dropped frames, from /diagnostics) and the messages out on
   motion_data, regions, planar_targets and anchors;
-- reads the manager's resident memory (/proc/<pid>/status VmRSS);
+- reads the manager's resident memory (/proc/<pid>/status VmRSS) every
+  second, and reports each minute's peak;
 - reads each nodelet's processing time (mean and max) and resets from
   /diagnostics, and graph_watchdog's verdicts.
 
 It prints one line per minute and exits non-zero (with the reasons) when an
 output got no message in a minute, the manager's memory grew more than 20%
-after the second minute, or graph_watchdog reported a nodelet that is not
+after the second minute (peak to peak), or graph_watchdog reported a nodelet that is not
 loaded (or the manager died).
 
   soak_monitor.py --minutes M --truth T.json --init INIT.yaml --manager-pid PID
@@ -140,13 +141,23 @@ def main():
     last = {}
     t0 = time.monotonic()
     minute = 0
-    print("| minute | frames in (dropped) | motion_data | regions | planar_targets | anchors | manager RSS (MB) "
+    print("| minute | frames in (dropped) | motion_data | regions | planar_targets | anchors | manager RSS peak (MB) "
           "| processing mean/max (ms): motion, regions, planar, anchors | resets | watchdog |", flush=True)
     print("|---|---|---|---|---|---|---|---|---|---|", flush=True)
     while minute < args.minutes:
         next_at = t0 + 60.0 * (minute + 1)
+        # The RSS sampled each second, its peak kept: the caches fill and
+        # empty with each loop of the bag, so one sample is as much phase as
+        # growth.
+        rss, sampled_at = None, 0.0
         while time.monotonic() < next_at:
             mon.add_due_items()
+            if time.monotonic() - sampled_at >= 1.0:
+                sampled_at = time.monotonic()
+                now = rss_mb(args.manager_pid)
+                rss = None if now is None else max(rss or 0.0, now)
+                if now is None:
+                    break
             time.sleep(0.05)
         minute += 1
         m, counters = mon.take_minute()
@@ -158,7 +169,6 @@ def main():
         frames, dropped = delta("motion_analysis", "frames"), delta("motion_analysis", "dropped")
         resets = delta("motion_analysis", "resets")
         last = counters
-        rss = rss_mb(args.manager_pid)
         proc = ", ".join("%.1f/%.0f" % (p[0] / p[1], p[2]) if p[1] else "-" for p in
                          (m.proc[n] for n in NODELETS))
         wd = "; ".join("%s: %s" % kv for kv in sorted(m.watchdog_errors.items())) or "OK"

@@ -8,8 +8,11 @@
 
 namespace imt {
 
-SessionNodelet::~SessionNodelet() {
-  if (hub_) hub_->removeMember(member_);
+SessionNodelet::~SessionNodelet() { leaveSession(); }
+
+void SessionNodelet::leaveSession() {
+  if (hub_ && member_ != -1) hub_->removeMember(member_);  // waits for a result being dispatched
+  member_ = -1;
 }
 
 void SessionNodelet::joinSession() {

@@ -58,15 +58,16 @@ TEST_P(RegionReal, FirstFrameBoxIsFollowed) {
   EXPECT_GE(score.successAuc(), c.min_auc);
 }
 
-// Measured success AUC (2026-11-24): car1 0.691, boat1 0.743, Human3 0.104,
-// V25_2 0.707, V24_7 0.738 (OpenCV CSRT: 0.740, 0.768, 0.178, 0.682, 0.661;
-// benchmark_region_real). Floors 0.05 under ours (Human3: 0.03, a third of
-// its figure): a change that loses a target on real video shows here.
-// car1 is sensitive to the last bit of the pixels: from libjpeg's own gray
-// decode instead of cvtColor it scores 0.602 (a few shaken frames decide
-// whether the look pulls the box back at once), so its floor is 0.55.
+// Measured success AUC (2026-11-24, last at the zoom taken as far as a
+// region is background): car1 0.761, boat1 0.743, Human3 0.118, V25_2 0.707,
+// V24_7 0.739 (OpenCV CSRT: 0.740, 0.768, 0.178, 0.682, 0.661;
+// benchmark_region_real). Floors about 0.05 under ours (Human3: 0.05, under
+// half its figure): a change that loses a target on real video shows here.
+// car1 is sensitive to the last bit of the pixels (from libjpeg's own gray
+// decode instead of cvtColor it scored 0.602 before that change; its 8
+// nudged starts now span 0.720..0.771), so its floor is 0.65.
 INSTANTIATE_TEST_SUITE_P(Sequences, RegionReal,
-                         ::testing::Values(RealCase{"vot2015_car1", 0.55}, RealCase{"uav123_10fps_boat1", 0.69},
+                         ::testing::Values(RealCase{"vot2015_car1", 0.65}, RealCase{"uav123_10fps_boat1", 0.69},
                                            RealCase{"otb_human3_first199", 0.07},
                                            RealCase{"pot210_V25_2", 0.65}, RealCase{"pot210_V24_7", 0.69}),
                          [](const ::testing::TestParamInfo<RealCase>& info) {

@@ -50,6 +50,8 @@ namespace imt {
 
 class AnchorNodelet : public SessionNodelet {
  public:
+  // Leaves the session first: no frame result may reach a half-destroyed nodelet.
+  ~AnchorNodelet() override { leaveSession(); }
   void onInit() override;
 
  private:

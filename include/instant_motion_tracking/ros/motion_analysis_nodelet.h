@@ -33,6 +33,8 @@ namespace imt {
 
 class MotionAnalysisNodelet : public SessionNodelet {
  public:
+  // Leaves the session first: no frame result may reach a half-destroyed nodelet.
+  ~MotionAnalysisNodelet() override { leaveSession(); }
   void onInit() override;
 
  private:

@@ -39,6 +39,8 @@ namespace imt {
 
 class PlanarTargetNodelet : public SessionNodelet {
  public:
+  // Leaves the session first: no frame result may reach a half-destroyed nodelet.
+  ~PlanarTargetNodelet() override { leaveSession(); }
   void onInit() override;
 
  private:

@@ -31,6 +31,8 @@ namespace imt {
 
 class RegionTrackerNodelet : public SessionNodelet {
  public:
+  // Leaves the session first: no frame result may reach a half-destroyed nodelet.
+  ~RegionTrackerNodelet() override { leaveSession(); }
   void onInit() override;
 
  private:

@@ -19,7 +19,7 @@
 //   member_ = hub_->addMember({on_result, on_demand_changed, /*feeds_images=*/false});
 //   hub_->run([&](TrackingSession& s) { ok = s.addRegion(...); });
 //   hub_->setWantsFrames(member_, wanted);          // lazy subscriptions
-//   ~: hub_->removeMember(member_);
+//   ~: hub_->removeMember(member_);  // before the member's callbacks become invalid
 // Threading: every method may be called from any thread. `on_result` runs
 // under the hub's lock: it must not call the hub's run() (it may read
 // through the session reference it is given). `on_demand_changed` runs

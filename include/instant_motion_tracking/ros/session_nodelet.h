@@ -49,6 +49,12 @@ class SessionNodelet : public nodelet::Nodelet {
   void startSession(const std::string& camera_info_topic, const std::string& input_topic,
                     const std::string& items_title, const std::vector<std::string>& statuses,
                     bool feeds_images = false);
+  // Stops being a member of the session (idempotent). The first thing each
+  // derived nodelet's destructor does: the session calls onResult() from
+  // other nodelets' threads, and once the derived part is gone that call
+  // would reach a pure virtual (an unload, or a broken bond, would take the
+  // whole manager down).
+  void leaveSession();
   // Re-checks whether this nodelet wants frames, then every input.
   void updateSubscription();
   // camera_info into the session, while this nodelet feeds it frames (one

@@ -25,6 +25,7 @@ struct Vec {
   Eigen::Vector2d src, dst;
   Eigen::Vector2d src_cam;  // src moved by the camera motion: the fit explains dst - src_cam
   double prior = 1, weight = 1, error = 0;
+  double bg = -1;  // the motion analysis's background weight (-1: a region's own feature)
   bool in_box = false;
 };
 
@@ -292,7 +293,8 @@ RegionState RegionTracker::stepMotion(const RegionState& state, const MotionData
   const Eigen::Vector2d c = centre(state.box);
   // The region's motion = camera motion + its own: the fit below explains
   // what is left after moving everything by the camera model, so a region
-  // with little support still inherits the camera's zoom and rotation.
+  // with little support still inherits the camera's zoom (as far as it is
+  // background, below) and rotation.
   const cv::Rect2d camera_box = moveBox(state.box, H_dir);
   const Eigen::Vector2d c_cam = centre(camera_box);
   const Eigen::Vector2d camera_shift = c_cam - c;
@@ -343,8 +345,10 @@ RegionState RegionTracker::stepMotion(const RegionState& state, const MotionData
     if (f.age == 0) continue;  // just detected: no motion measured yet
     const Eigen::Vector2d cur(f.x, f.y);
     const Eigen::Vector2d prev = applyH(H_inv, cur - Eigen::Vector2d(f.dx, f.dy));
+    const size_t before = vecs.size();
     if (dir == Direction::kForward) addVec(f.id, prev, cur);
     else addVec(f.id, cur, prev);
+    if (vecs.size() > before) vecs.back().bg = f.bg_weight;
   }
   // The region's own features, tracked from its frame into the next.
   if (!from_image.empty() && !to_image.empty() && !state.own_points.empty()) {
@@ -493,6 +497,24 @@ RegionState RegionTracker::stepMotion(const RegionState& state, const MotionData
   std::sort(inliers.begin(), inliers.end());
   std::sort(outliers.begin(), outliers.end());
   next.box = moveBox(camera_box, model);
+  // Without a scale of its own (a translation fit), the region takes the
+  // camera's zoom only as far as its inliers are background (the motion
+  // analysis's weights): a car followed by a car keeps its size while the
+  // road around it grows; a patch on the wall zooms with the wall. Without
+  // such inliers (its own features only) it takes the camera's.
+  if (model.dof == 2) {
+    double bg = 0;
+    int n_bg = 0;
+    for (const Vec& v : vecs) {
+      if (!v.in_box || v.bg < 0 || v.error >= thr) continue;
+      bg += v.bg;
+      ++n_bg;
+    }
+    if (n_bg > 0) {
+      const double zoom = std::pow(camera_box.width / state.box.width, bg / n_bg);
+      next.box = boxAt(centre(next.box), zoom * state.box.width, zoom * state.box.height);
+    }
+  }
   const Eigen::Vector2d shift = centre(next.box) - c;
   const bool first = state.support == 0;
   const double blend = first ? 0.0 : o.velocity_blend;

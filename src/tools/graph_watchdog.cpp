@@ -4,7 +4,8 @@
 //
 // Every `period` s of wall time it asks the manager which nodelets are
 // loaded (`<manager>/list`) and reads each nodelet's own "<name>: input"
-// status on /diagnostics (NodeletHealth). A nodelet is in ERROR when
+// status on /diagnostics (NodeletHealth). After its first `silence` s (the
+// graph coming up), a nodelet is in ERROR when
 //  - it is not loaded in the manager (unloaded: a broken bond, a crash, a
 //    user's unload), or the manager does not answer;
 //  - its diagnostics have been silent for `silence` s (hung, or its manager
@@ -124,7 +125,7 @@ class GraphWatchdog {
         reason = "no frames processed for " + std::to_string(static_cast<int>((now - w.last_frames).toSec())) +
                  " s while motion_data flows at " + std::to_string(source.rate).substr(0, 5) + " Hz";
       }
-      if (grace && reason.find("not loaded") == std::string::npos) reason.clear();
+      if (grace) reason.clear();  // the loaders may still be loading
       report(name, reason, now, &out);
     }
     pub_.publish(out);

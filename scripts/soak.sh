@@ -57,9 +57,18 @@ imt_log "roslaunch replay.launch (loop, rate $rate) ${launch_args[*]:-}"
 setsid "${IMT_CHILD_ENV[@]}" roslaunch instant_motion_tracking replay.launch bag:="$out/cards.bag" \
   rviz:=false loop:=true rate:="$rate" "${launch_args[@]}" >"$out/logs/roslaunch.out" 2>&1 &
 pids+=($!)
+# This run's manager: the one talking to this run's master, not another graph's.
+own_manager() {
+  local p
+  for p in $(pgrep -f "__name:=imt_manager" || true); do
+    tr '\0' '\n' <"/proc/$p/environ" 2>/dev/null |
+      grep -qx "ROS_MASTER_URI=http://localhost:$IMT_MASTER_PORT" && { echo "$p"; return 0; }
+  done
+  return 0
+}
 manager_pid=""
 for _ in $(seq 150); do
-  manager_pid=$(pgrep -f "__name:=imt_manager" | head -n 1 || true)
+  manager_pid=$(own_manager)
   [ -n "$manager_pid" ] && break
   sleep 0.2
 done

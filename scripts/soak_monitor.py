@@ -21,6 +21,7 @@ loaded (or the manager died).
   soak_monitor.py --minutes M --truth T.json --init INIT.yaml --manager-pid PID
 """
 import argparse
+import json
 import os
 import sys
 import threading
@@ -55,14 +56,13 @@ class Minute:
 
 
 class Monitor:
-    def __init__(self, args, plan):
+    def __init__(self, plan):
         import rospy
         from diagnostic_msgs.msg import DiagnosticArray
         self.lock = threading.Lock()
         self.minute = Minute()
         self.counters = {}  # (nodelet, key) -> latest cumulative value
         self.latest_stamp = None
-        self.loop_start = None
         self.plan = plan
         self.pending = list(plan)
         self.subs = [rospy.Subscriber(o, rospy.AnyMsg, self.on_output, o, queue_size=50) for o in OUTPUTS[1:]]
@@ -129,13 +129,12 @@ def main():
     args = ap.parse_args()
     import rospy
     with open(args.truth) as f:
-        import json
         truth = json.load(f)
     with open(args.init) as f:
         init = yaml.safe_load(f)
     plan = make_plan(truth, init)
     rospy.init_node("imt_soak_monitor", anonymous=True, disable_signals=True)
-    mon = Monitor(args, plan)
+    mon = Monitor(plan)
     failures = []
     rss2 = None
     last = {}
@@ -164,8 +163,7 @@ def main():
 
         def delta(nodelet, key):
             v = counters.get((nodelet, key))
-            d = None if v is None else v - last.get((nodelet, key), 0)
-            return d
+            return None if v is None else v - last.get((nodelet, key), 0)
         frames, dropped = delta("motion_analysis", "frames"), delta("motion_analysis", "dropped")
         resets = delta("motion_analysis", "resets")
         last = counters

@@ -469,6 +469,8 @@ RegionState RegionTracker::stepMotion(const RegionState& state, const MotionData
   std::vector<uint32_t> inliers, outliers;
   Eigen::Vector2d centroid = Eigen::Vector2d::Zero();
   int continued = 0;
+  double bg_sum = 0;  // the inliers' background weights (motion-analysis features only)
+  int n_bg = 0;
   for (Vec& v : vecs) {
     v.error = (v.dst - model.apply(v.src_cam)).norm();
     if (!v.in_box) continue;
@@ -476,6 +478,10 @@ RegionState RegionTracker::stepMotion(const RegionState& state, const MotionData
       inliers.push_back(v.id);
       centroid += v.dst;
       if (contains(state.inliers, v.id)) ++continued;
+      if (v.bg >= 0) {
+        bg_sum += v.bg;
+        ++n_bg;
+      }
     } else {
       outliers.push_back(v.id);
     }
@@ -502,18 +508,9 @@ RegionState RegionTracker::stepMotion(const RegionState& state, const MotionData
   // analysis's weights): a car followed by a car keeps its size while the
   // road around it grows; a patch on the wall zooms with the wall. Without
   // such inliers (its own features only) it takes the camera's.
-  if (model.dof == 2) {
-    double bg = 0;
-    int n_bg = 0;
-    for (const Vec& v : vecs) {
-      if (!v.in_box || v.bg < 0 || v.error >= thr) continue;
-      bg += v.bg;
-      ++n_bg;
-    }
-    if (n_bg > 0) {
-      const double zoom = std::pow(camera_box.width / state.box.width, bg / n_bg);
-      next.box = boxAt(centre(next.box), zoom * state.box.width, zoom * state.box.height);
-    }
+  if (model.dof == 2 && n_bg > 0) {
+    const double zoom = std::pow(camera_box.width / state.box.width, bg_sum / n_bg);
+    next.box = boxAt(centre(next.box), zoom * state.box.width, zoom * state.box.height);
   }
   const Eigen::Vector2d shift = centre(next.box) - c;
   const bool first = state.support == 0;

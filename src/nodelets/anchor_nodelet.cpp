@@ -94,7 +94,23 @@ std::string AnchorNodelet::rotationReport(const TrackingSession& s) {
                   1000 * s.timeOffset(), 1000 * f->offset, f->correlation);
   else
     std::snprintf(offset, sizeof(offset), "; time offset %.1f ms (video: none yet)", 1000 * s.timeOffset());
-  return r + fit + offset;
+  return r + fit + offset + biasReport(s);
+}
+
+// The gyro bias in use and the video's estimate of it (deg/s):
+// "; gyro bias (0.29 -0.34 0.20) deg/s from video (video: +-0.004 over 873 frames)".
+std::string AnchorNodelet::biasReport(const TrackingSession& s) {
+  constexpr double kDeg = 180 / M_PI;
+  const Eigen::Vector3d b = s.gyroBias() * kDeg;
+  char text[160];
+  std::snprintf(text, sizeof(text), "; gyro bias (%.3f %.3f %.3f) deg/s from %s", b.x(), b.y(), b.z(),
+                ImuOrientation::biasSourceName(s.gyroBiasSource()));
+  char video[96];
+  if (const auto& e = s.videoGyroBias())
+    std::snprintf(video, sizeof(video), " (video: +-%.3f over %d frames)", e->sigma.norm() * kDeg, e->frames);
+  else
+    std::snprintf(video, sizeof(video), " (video: none yet)");
+  return std::string(text) + video;
 }
 
 void AnchorNodelet::imuCb(const sensor_msgs::ImuConstPtr& msg) {

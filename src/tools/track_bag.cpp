@@ -463,6 +463,15 @@ class TrackBagRun {
     if (const auto& f = session_->timeOffsetFit())
       d["imu_time_offset_video"] = {{"offset", f->offset}, {"found", f->found}, {"correlation", f->correlation},
                                     {"correlation_at_zero", f->at_zero}, {"turns", f->turns}};
+    // The gyro bias in use (rad/s, IMU frame), its source, and the video's estimate.
+    const Eigen::Vector3d& bias = session_->gyroBias();
+    d["gyro_bias"] = {bias.x(), bias.y(), bias.z()};
+    d["gyro_bias_source"] = imt::ImuOrientation::biasSourceName(session_->gyroBiasSource());
+    d["gyro_bias_video"] = nullptr;
+    if (const auto& e = session_->videoGyroBias())
+      d["gyro_bias_video"] = {{"bias", {e->bias.x(), e->bias.y(), e->bias.z()}},
+                              {"sigma", {e->sigma.x(), e->sigma.y(), e->sigma.z()}},
+                              {"frames", e->frames}};
     d["frames_dropped"] = {{"duplicate_stamp", session_->timeDrops().duplicate},
                            {"stamp_behind", session_->timeDrops().behind}};
     d["frames_read_again"] = rereads_;

@@ -274,6 +274,9 @@ struct WalkFigures {
   bool tracked_while_calibrating = false;  // a `tracked` state before it was found
   std::string disagreement;               // AnchorManager::rotationDisagreement() at the end
   double time_offset = 0;                 // s, AnchorManager::timeOffset() at the end
+  Eigen::Vector3d gyro_bias = Eigen::Vector3d::Zero();  // rad/s, the bias in use at the end
+  ImuOrientation::BiasSource bias_source = ImuOrientation::BiasSource::kFixed;
+  std::optional<VideoGyroBias::Estimate> video_bias;  // the video's at the end
   TimeOffsetFit offset_fit;               // AnchorManager::timeOffsetFit() at the end
 };
 
@@ -299,6 +302,7 @@ struct WalkSetup {
   std::function<void(SceneOptions*)> adjust;  // the scene's options
   double imu_late = 0;                        // s added to every IMU stamp (a driver stamping late)
   AnchorOptions anchors;
+  ImuOptions imu;
 };
 
 // floor_walk frame by frame: the IMU fed as a live stream would be, frames
@@ -319,7 +323,7 @@ void runWalk(WalkFigures* out, OutOfView mode = OutOfView::kVisual,
   ASSERT_TRUE(scene);
   const CameraModel K = scene->intrinsics();
   RegionManager regions(RegionTrackerOptions(), 10.0);
-  AnchorManager anchors(setup.anchors, ImuOptions(), 60.0, &regions);
+  AnchorManager anchors(setup.anchors, setup.imu, 60.0, &regions);
   if (mode == OutOfView::kNoCameraModelNoFallback) regions.setCameraFallback(nullptr);
   anchors.setIntrinsics(K);
   if (!hidden_rotation) {
@@ -416,6 +420,9 @@ void runWalk(WalkFigures* out, OutOfView mode = OutOfView::kVisual,
   }
   out->disagreement = anchors.rotationDisagreement();
   out->time_offset = anchors.timeOffset();
+  out->gyro_bias = anchors.gyroBias();
+  out->bias_source = anchors.gyroBiasSource();
+  out->video_bias = anchors.videoGyroBias();
   if (anchors.timeOffsetFit()) out->offset_fit = *anchors.timeOffsetFit();
   if (anchors.rotationSource() != AnchorManager::RotationSource::kNone)
     out->rotation_error = Eigen::AngleAxisd(anchors.imu().rotationCamImu()->toRotationMatrix().transpose() *
@@ -473,7 +480,7 @@ TEST(AnchorManager, FloorWalkFindsTheImuRotationFromTheVideo) {
   EXPECT_LE(f.rotation_error, 1.0);
   // Measured: found 1.23 s in (37 states calibrating), 0.35 deg off at the
   // end. From then on, the bars of FloorWalkAgainstGroundTruth for the pixel
-  // and the orientation (measured 0.64 px, 0.29 deg; 0.60 px, 0.06 deg with
+  // and the orientation (measured 0.64 px, 0.29 deg; 0.60 px, 0.08 deg with
   // the rotation given). The range error is compared over the same frames
   // with the rotation given (the walk's later part is harder than its start:
   // 5.0% there, 4.4% over the whole walk): measured 5.7%; within a point.
@@ -489,38 +496,53 @@ TEST(AnchorManager, FloorWalkFindsTheImuRotationFromTheVideo) {
   EXPECT_LE(median(f.range), median(same_frames) + 0.01);
 }
 
-// Issue 14's slow-turn drift: the walk at a fifth of its motion (turns
-// under 5 deg/s, never still) for 18 s, with a constant gyro bias of 0.32
-// deg/s. The IMU alone took a stretch of slow turning for stillness (10 s
-// in) and its rate for the bias: the orientation error then grew 1.16 deg/s,
-// to 11.5 deg over the last 2 s. Stillness now needs the video's agreement
-// (imu.still_needs_video): no bias is learnt from turning, and the error grows
-// with the true bias only (0.31 deg/s, 5.3 deg over the last 2 s). The bias
-// itself is not yet tracked from the video (issue 14, item 2).
+// Issue 14's slow-turn drift and its goal: the walk at a fifth of its
+// motion (turns under 5 deg/s, never still) for 60 s, with a constant gyro
+// bias of 0.49 deg/s. The IMU alone took a stretch of slow turning for
+// stillness and its rate for the bias (the error grew 1.16 deg/s). Stillness
+// needing the video's agreement stopped that, and the error then grew with
+// the bias itself (0.31 deg/s over 18 s with a 0.32 deg/s bias). Now the
+// video tracks the bias while the camera moves (imu.video_bias): the gyro's
+// turn between frames against the camera's, read off the floor's motion with
+// the IMU's up as its normal. Goal: the anchor's orientation within 1 deg
+// after 60 s.
 TEST(AnchorManager, FloorWalkSlowTurnsWithAGyroBias) {
-  WalkFigures f;
-  const Eigen::Vector3d bias(0.003, -0.004, 0.002);  // rad/s, 0.32 deg/s
+  const Eigen::Vector3d bias(0.005, -0.006, 0.0035);  // rad/s, 0.49 deg/s
   WalkSetup setup;
   setup.adjust = [&](SceneOptions* o) {
     o->trajectory_amplitude = 0.2;
-    o->duration = 18.0;
+    o->duration = 60.0;
     o->gyro_bias = bias;
   };
+  WalkFigures f, without;
   runWalk(&f, OutOfView::kVisual, std::nullopt, std::nullopt, setup);
-  std::vector<double> first, last;
-  for (const auto& [t, e] : f.rot_at) {
-    if (t < 2) first.push_back(e);
-    if (t > 16) last.push_back(e);
-  }
-  const double rate = (median(last) - median(first)) / 15;  // the medians are 15 s apart
-  std::printf("slow walk with a gyro bias: orientation median first 2 s %.3f deg, last 2 s %.3f deg: %.3f deg/s "
-              "(the bias: %.3f deg/s)\n",
-              median(first), median(last), rate, bias.norm() * 180 / M_PI);
-  ASSERT_FALSE(first.empty());
+  setup.imu.video_bias = false;
+  runWalk(&without, OutOfView::kVisual, std::nullopt, std::nullopt, setup);
+  auto lastTwoSeconds = [](const WalkFigures& w) {
+    std::vector<double> last;
+    for (const auto& [t, e] : w.rot_at)
+      if (t > 58) last.push_back(e);
+    return last;
+  };
+  const std::vector<double> last = lastTwoSeconds(f), last_without = lastTwoSeconds(without);
   ASSERT_FALSE(last.empty());
-  // No faster than the bias itself (+0.05 deg/s for the walk's own error);
-  // 1.16 deg/s before.
-  EXPECT_LE(rate, bias.norm() * 180 / M_PI + 0.05);
+  ASSERT_FALSE(last_without.empty());
+  ASSERT_TRUE(f.video_bias);
+  std::printf("slow walk, 60 s, gyro bias %.3f deg/s: orientation median over the last 2 s %.3f deg (without the "
+              "video's bias %.3f deg); bias in use (%s) off by %.4f deg/s, the video's sigma %.4f deg/s over %d "
+              "frames\n",
+              bias.norm() * 180 / M_PI, median(last), median(last_without),
+              ImuOrientation::biasSourceName(f.bias_source), (f.gyro_bias - bias).norm() * 180 / M_PI,
+              f.video_bias->sigma.norm() * 180 / M_PI, f.video_bias->frames);
+  EXPECT_EQ(f.bias_source, ImuOrientation::BiasSource::kVideo);
+  // Issue 14's goal.
+  EXPECT_LE(median(last), 1.0);
+  // The bias itself to within 3 of the video's own standard errors (and
+  // what it says of itself is no overstatement: 3 sigma under 0.05 deg/s).
+  EXPECT_LE((f.gyro_bias - bias).norm(), 3 * f.video_bias->sigma.norm());
+  EXPECT_LE(3 * f.video_bias->sigma.norm() * 180 / M_PI, 0.05);
+  // Without it the error grows with the bias (about 0.49 deg/s).
+  EXPECT_GE(median(last_without), 10.0);
 }
 
 // Issue 14: IMU stamps late by -30, 0 and +40 ms against the frames' (the
@@ -534,8 +556,10 @@ TEST(AnchorManager, FloorWalkTimeOffsetFromTheVideo) {
     setup.imu_late = late_ms / 1000.0;
     runWalk(&f, OutOfView::kVisual, std::nullopt, std::nullopt, setup);
     fits[late_ms] = f.offset_fit;
-    std::printf("IMU %+d ms late: estimated %.1f ms (correlation %.3f; %.3f at 0 ms) over %d turns\n", late_ms,
-                1000 * f.offset_fit.offset, f.offset_fit.correlation, f.offset_fit.at_zero, f.offset_fit.turns);
+    std::printf("IMU %+d ms late: estimated %.1f ms (correlation %.3f; %.3f at 0 ms) over %d turns; gyro bias %.4f "
+                "deg/s from %s\n",
+                late_ms, 1000 * f.offset_fit.offset, f.offset_fit.correlation, f.offset_fit.at_zero, f.offset_fit.turns,
+                f.gyro_bias.norm() * 180 / M_PI, ImuOrientation::biasSourceName(f.bias_source));
     ASSERT_TRUE(f.offset_fit.found) << late_ms << " ms";
     EXPECT_EQ(f.time_offset, 0.0) << "applied only when anchors.estimate_imu_time_offset says so";
   }
@@ -557,8 +581,11 @@ TEST(AnchorManager, FloorWalkTimeOffsetFromTheVideo) {
   runWalk(&applied, OutOfView::kVisual, std::nullopt, std::nullopt, setup);
   std::printf("IMU 40 ms late: orientation median %.3f deg with the offset applied (%.1f ms), %.3f deg without\n",
               median(applied.rot), 1000 * applied.time_offset, median(ignored.rot));
-  // Measured 0.439 deg applied (53.6 ms), 0.693 deg without (0.058 deg
-  // with the IMU on time): the scene's bias above keeps a third of the error.
+  // Measured 0.580 deg applied (53.8 ms), 0.640 deg without (0.076 deg
+  // with the IMU on time): the scene's bias above keeps most of the error.
+  // (Before the video tracked the gyro bias: 0.439 / 0.693 / 0.137 deg. The
+  // bias found from frames read at a changing offset costs the applied run
+  // 0.14 deg; the other two gained.)
   EXPECT_NEAR(applied.time_offset, fits[40].offset, 0.002);
   EXPECT_LT(median(applied.rot), median(ignored.rot));
 }

@@ -117,7 +117,7 @@ TEST(ImuOrientation, OptionsVisitAndValidate) {
     ++fields;
   };
   o.visit(count);
-  EXPECT_EQ(fields, 18);
+  EXPECT_EQ(fields, 20);
   ImuOptions b = o;
   b.still_seconds = 0;
   EXPECT_NE(b.validate().find("imu.still_seconds"), std::string::npos) << b.validate();

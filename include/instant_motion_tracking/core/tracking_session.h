@@ -98,6 +98,10 @@ class TrackingSession {
   // The camera-IMU time offset in use and the video's last fit of it.
   double timeOffset() const { return anchors_->timeOffset(); }
   const std::optional<TimeOffsetFit>& timeOffsetFit() const { return anchors_->timeOffsetFit(); }
+  // The gyro bias in use, its source, and the video's estimate (AnchorManager).
+  const Eigen::Vector3d& gyroBias() const { return anchors_->gyroBias(); }
+  ImuOrientation::BiasSource gyroBiasSource() const { return anchors_->gyroBiasSource(); }
+  const std::optional<VideoGyroBias::Estimate>& videoGyroBias() const { return anchors_->videoGyroBias(); }
   // An IMU sample, in stamp order (see AnchorManager::addImu for the outcomes).
   // Frames waiting for it may become ready: takeResults() afterwards.
   ImuInput addImu(const ImuSample& s, std::string* why = nullptr);

@@ -63,6 +63,7 @@ class AnchorNodelet : public SessionNodelet {
   // The IMU -> camera rotation from tf, until known (session lock held).
   void lookupRotation(TrackingSession& s, const std::string& imu_frame);
   static std::string rotationReport(const TrackingSession& s);
+  static std::string biasReport(const TrackingSession& s);
   bool addCb(instant_motion_tracking::AddAnchor::Request& req, instant_motion_tracking::AddAnchor::Response& res);
   bool removeCb(instant_motion_tracking::RemoveRegion::Request& req,
                 instant_motion_tracking::RemoveRegion::Response& res);

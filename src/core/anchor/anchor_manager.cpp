@@ -87,7 +87,8 @@ AnchorManager::AnchorManager(const AnchorOptions& options, const ImuOptions& imu
     : options_(validated(options)),
       default_hfov_deg_(default_hfov_deg),
       regions_(regions),
-      imu_(imu_options) {
+      imu_(imu_options),
+      video_bias_(imu_.options().video_bias_seconds) {
   Eigen::Quaterniond q;
   if (options_.rotationCamImu(&q)) useRotation(q, RotationSource::kOptions);
   imu_.setTimeOffset(options_.imu_time_offset);
@@ -99,11 +100,11 @@ AnchorManager::AnchorManager(const AnchorOptions& options, const ImuOptions& imu
   // the IMU -> camera rotation is unknown at t.
   regions_->setCameraFallback([this](double t_prev, double t, Eigen::Matrix3d* H) {
     const Eigen::Quaterniond* q = rotationAt(t);
-    Eigen::Matrix3d A, B;
-    if (!q || !imu_.R_world_imu(t_prev, &A) || !imu_.R_world_imu(t, &B)) return false;
+    Eigen::Matrix3d turn;  // the IMU at t in the IMU at t_prev
+    if (!q || !imu_.turnAtImuStamps(t_prev + imu_.timeOffset(), t + imu_.timeOffset(), &turn)) return false;
     const Eigen::Matrix3d R_ci = q->toRotationMatrix();
     // x_t ~ K R_cam(t)_cam(t_prev) K^-1 x_prev.
-    const Eigen::Matrix3d R = R_ci * (B.transpose() * A) * R_ci.transpose();
+    const Eigen::Matrix3d R = R_ci * turn.transpose() * R_ci.transpose();
     const CameraModel k = intrinsics();
     const Eigen::Matrix3d h = k.K() * R * k.K().inverse();
     if (!h.allFinite() || !(std::abs(h(2, 2)) > 1e-12)) return false;
@@ -136,6 +137,9 @@ bool AnchorManager::useRotation(const Eigen::Quaterniond& q, RotationSource sour
     rotations_.assign(1, {-std::numeric_limits<double>::infinity(), unit});
   }
   rotation_source_ = source;
+  // The video's bias readings were taken with the old rotation (the floor's
+  // normal, the turns' axes): they go.
+  clearVideoBias();
   return true;
 }
 
@@ -186,6 +190,8 @@ ImuInput AnchorManager::addImu(const ImuSample& s, std::string* why) {
 void AnchorManager::resetImu() {
   imu_.reset();
   turns_.clear();
+  clearVideoBias();
+  bias_applied_at_ = -std::numeric_limits<double>::infinity();
   clearTimeOffsetTurns();
   for (auto& [id, a] : anchors_) a.bound = false;
 }
@@ -194,6 +200,8 @@ void AnchorManager::update() {
   if (!regions_->lastReset().empty()) {
     anchors_.clear();  // the region manager dropped their regions
     turns_.clear();
+    clearVideoBias();  // the new stream's stamps start before the old one's
+    bias_applied_at_ = -std::numeric_limits<double>::infinity();
     clearTimeOffsetTurns();
     // A rotation the video showed belongs to the rig, not to the stream: the
     // new stream (a bag loop: stamps from before it was found) has it from
@@ -209,7 +217,7 @@ void AnchorManager::update() {
     Eigen::Vector3d theta = Eigen::Vector3d::Zero();
     const bool known = cameraTurn(intrinsics(), md.camera, &theta);
     if (known) {
-      turns_.push_back({t0, md.stamp, theta});
+      turns_.push_back({t0, md.stamp, theta, md.camera.H});
       time_offset_.add(t0, md.stamp, theta.norm());
     }
     // The IMU's stillness needs the video's agreement (a slow turn feels still).
@@ -228,16 +236,18 @@ void AnchorManager::clearTimeOffsetTurns() {
 void AnchorManager::fitTimeOffset() {
   next_offset_fit_ = time_offset_.turns() + kOffsetRefitTurns;
   const TimeOffsetFit fit = time_offset_.fit([this](double s0, double s1, double* angle) {
-    Eigen::Matrix3d A, B;
-    if (!imu_.atImuStamp(s0, &A) || !imu_.atImuStamp(s1, &B)) return false;
-    *angle = Eigen::AngleAxisd(A.transpose() * B).angle();
+    Eigen::Matrix3d turn;
+    if (!imu_.turnAtImuStamps(s0, s1, &turn)) return false;
+    *angle = Eigen::AngleAxisd(turn).angle();
     return true;
   });
   if (fit.turns > 0) time_offset_fit_ = fit;
   // Applied from now on (the frames before keep what they had, live and
   // offline alike); a change under a millisecond is noise.
-  if (options_.estimate_imu_time_offset && fit.found && std::abs(fit.offset - imu_.timeOffset()) >= 0.001)
+  if (options_.estimate_imu_time_offset && fit.found && std::abs(fit.offset - imu_.timeOffset()) >= 0.001) {
     imu_.setTimeOffset(fit.offset);
+    clearVideoBias();  // its gyro turns were read at the old offset
+  }
 }
 
 void AnchorManager::readTurns() {
@@ -246,9 +256,16 @@ void AnchorManager::readTurns() {
   while (!turns_.empty() && !imu_.empty() && turns_.front().t1 + imu_.timeOffset() <= imu_.newestStamp()) {
     const Turn t = turns_.front();
     turns_.pop_front();
-    Eigen::Matrix3d A, B;
-    if (!imu_.R_world_imu(t.t0, &A) || !imu_.R_world_imu(t.t1, &B)) continue;  // before the IMU began, or a gap
-    video_rotation_.add(t.theta_cam, rotationVector(A.transpose() * B));  // the IMU at t1 in the IMU at t0
+    Eigen::Matrix3d turn;  // the IMU at t1 in the IMU at t0
+    if (!imu_.R_cam1_cam2(t.t0, t.t1, nullptr) ||  // before the IMU began, or a gap
+        !imu_.turnAtImuStamps(t.t0 + imu_.timeOffset(), t.t1 + imu_.timeOffset(), &turn))
+      continue;
+    video_rotation_.add(t.theta_cam, rotationVector(turn));
+    addBiasTurn(t, turn);
+    if (++bias_turns_since_fit_ >= kVideoBiasRefitTurns) {
+      bias_turns_since_fit_ = 0;
+      fitVideoBias(t.t1);
+    }
     const auto estimate = video_rotation_.estimate();
     if (!estimate) continue;
     const bool first = rotation_source_ == RotationSource::kNone;
@@ -258,6 +275,44 @@ void AnchorManager::readTurns() {
   }
   // Bounded: turns the gyro never covers (an IMU that stopped) are dropped.
   while (turns_.size() > kMaxWaitingTurns) turns_.pop_front();
+}
+
+void AnchorManager::addBiasTurn(const Turn& t, const Eigen::Matrix3d& R_imu0_imu1) {
+  const ImuOptions& o = imu_.options();
+  const Eigen::Quaterniond* q = rotationAt(t.t1);
+  if (!o.video_bias || !o.estimate_gyro_bias || o.use_fused_orientation || !q) return;
+  // The camera's turn: over the floor (the IMU's up as the plane's normal)
+  // or as a turn and a zoom, whichever explains the background's motion
+  // better; neither within kVideoBiasMaxRmsPx: no reading.
+  const CameraModel k = intrinsics();
+  Eigen::Matrix3d R_plane, R_turn;
+  double rms_plane = std::numeric_limits<double>::infinity(), rms_turn = rms_plane;
+  const Eigen::Vector3d up = imu_.upInCamera(t.t0);
+  if (!rotationFromPlaneHomography(k, t.H, up, &R_plane, &rms_plane)) rms_plane = std::numeric_limits<double>::infinity();
+  if (!rotationFromHomography(k, t.H, &R_turn, &rms_turn)) rms_turn = std::numeric_limits<double>::infinity();
+  const double rms = std::min(rms_plane, rms_turn);
+  if (!(rms <= kVideoBiasMaxRmsPx)) return;
+  // R maps rays at t0 to rays at t1: the camera at t1 in the camera at t0 is R^T.
+  const Eigen::Vector3d theta_cam = rotationVector((rms_plane <= rms_turn ? R_plane : R_turn).transpose());
+  const double dt = t.t1 - t.t0;
+  // The gyro's turn with the bias in use put back (the window was integrated with it).
+  video_bias_.add(t.t1, dt, rotationVector(R_imu0_imu1) + imu_.gyroBias() * dt, theta_cam);
+}
+
+void AnchorManager::fitVideoBias(double t1) {
+  const Eigen::Quaterniond* q = rotationAt(t1);
+  if (!q) return;
+  video_bias_estimate_ = video_bias_.estimate(q->toRotationMatrix().transpose(),
+                                              rotation_source_ == RotationSource::kVideo);
+  if (!video_bias_estimate_ || !(video_bias_estimate_->sigma.maxCoeff() <= kVideoBiasMaxSigma)) return;
+  const double at = t1 + imu_.timeOffset();
+  const double from = std::max(bias_applied_at_, at - kVideoBiasReach * imu_.options().window_seconds);
+  if (imu_.setVideoGyroBias(video_bias_estimate_->bias, from, at)) bias_applied_at_ = at;
+}
+
+void AnchorManager::clearVideoBias() {
+  video_bias_.clear();
+  bias_turns_since_fit_ = 0;
 }
 
 // The world orientation of the anchor: from the IMU at placement, or, when

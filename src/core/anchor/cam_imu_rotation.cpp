@@ -7,6 +7,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <vector>
 
 namespace imt {
@@ -22,12 +23,20 @@ Eigen::Matrix3d procrustes(const Eigen::Matrix3d& sum_a_bt) {
 
 }  // namespace
 
-bool rotationFromHomography(const CameraModel& k, const Eigen::Matrix3d& H, Eigen::Matrix3d* R, double* rms_px) {
+namespace {
+
+// Rays through a grid over the middle 80% of the image and through their
+// images under H (ideal normalised coordinates, z = 1), with those images in
+// image pixels. False when H or the camera model is unusable, or a grid
+// point maps behind the camera.
+struct GridRays {
+  std::vector<Eigen::Vector3d> from, to;
+  std::vector<cv::Point2d> seen;
+};
+bool gridRays(const CameraModel& k, const Eigen::Matrix3d& H, GridRays* g) {
   if (!k.valid || !(k.fx > 0) || !(k.fy > 0) || !H.allFinite() || k.width <= 0 || k.height <= 0) return false;
   const Eigen::Matrix3d Kinv = k.K().inverse();
   constexpr int kGrid = 5;
-  std::vector<Eigen::Vector3d> from, to;  // ideal normalised coordinates (z = 1)
-  std::vector<cv::Point2d> seen;  // H's images of the grid (image px)
   for (int i = 0; i < kGrid; ++i)
     for (int j = 0; j < kGrid; ++j) {
       const cv::Point2d p(k.width * (0.1 + 0.8 * j / (kGrid - 1)), k.height * (0.1 + 0.8 * i / (kGrid - 1)));
@@ -35,10 +44,34 @@ bool rotationFromHomography(const CameraModel& k, const Eigen::Matrix3d& H, Eige
       if (!(q.z() > 0)) return false;
       const cv::Point2d p2(q.x() / q.z(), q.y() / q.z());
       const cv::Point2d a = k.undistort(p), b = k.undistort(p2);
-      from.push_back(Kinv * Eigen::Vector3d(a.x, a.y, 1.0));
-      to.push_back(Kinv * Eigen::Vector3d(b.x, b.y, 1.0));
-      seen.push_back(p2);
+      g->from.push_back(Kinv * Eigen::Vector3d(a.x, a.y, 1.0));
+      g->to.push_back(Kinv * Eigen::Vector3d(b.x, b.y, 1.0));
+      g->seen.push_back(p2);
     }
+  return true;
+}
+
+// How far, in image pixels, the rays G x (x: the grid's `from`) land from
+// H's images of the grid: the rms.
+double rmsPx(const CameraModel& k, const GridRays& g, const Eigen::Matrix3d& G) {
+  const Eigen::Matrix3d KG = k.K() * G;
+  double sum = 0;
+  for (size_t i = 0; i < g.from.size(); ++i) {
+    const Eigen::Vector3d r = KG * g.from[i];
+    if (!(r.z() > 0)) return std::numeric_limits<double>::infinity();
+    const cv::Point2d shown = k.distort(cv::Point2d(r.x() / r.z(), r.y() / r.z()));
+    sum += std::pow(shown.x - g.seen[i].x, 2) + std::pow(shown.y - g.seen[i].y, 2);
+  }
+  return std::sqrt(sum / g.from.size());
+}
+
+}  // namespace
+
+bool rotationFromHomography(const CameraModel& k, const Eigen::Matrix3d& H, Eigen::Matrix3d* R, double* rms_px) {
+  GridRays g;
+  if (!gridRays(k, H, &g)) return false;
+  const std::vector<Eigen::Vector3d>& from = g.from;
+  const std::vector<Eigen::Vector3d>& to = g.to;
   // A turn and a zoom about the principal point (the camera also moved
   // along its axis: a hand walking forward), fitted in turn: the rotation
   // by Procrustes on the rays with the zoom applied, the zoom by least
@@ -63,15 +96,39 @@ bool rotationFromHomography(const CameraModel& k, const Eigen::Matrix3d& H, Eige
     zoom = std::clamp(num / den, 0.5, 2.0);
   }
   // How well the turn and zoom reproduce H, in image pixels.
-  const Eigen::Matrix3d KR = k.K() * *R;
-  double sum = 0;
-  for (size_t i = 0; i < from.size(); ++i) {
-    const Eigen::Vector3d r = KR * Eigen::Vector3d(zoom * from[i].x(), zoom * from[i].y(), 1.0);
-    if (!(r.z() > 0)) return false;
-    const cv::Point2d shown = k.distort(cv::Point2d(r.x() / r.z(), r.y() / r.z()));
-    sum += std::pow(shown.x - seen[i].x, 2) + std::pow(shown.y - seen[i].y, 2);
+  *rms_px = rmsPx(k, g, *R * Eigen::Vector3d(zoom, zoom, 1.0).asDiagonal());
+  return std::isfinite(*rms_px);
+}
+
+bool rotationFromPlaneHomography(const CameraModel& k, const Eigen::Matrix3d& H, const Eigen::Vector3d& normal,
+                                 Eigen::Matrix3d* R, double* rms_px) {
+  if (!normal.allFinite() || !(normal.norm() > 0.5)) return false;
+  GridRays g;
+  if (!gridRays(k, H, &g)) return false;
+  // G ~ H between ideal rays (the lens taken out), by least squares on the
+  // grid: G x_i parallel to y_i, i.e. [y_i]x G x_i = 0 (DLT).
+  Eigen::MatrixXd A(2 * g.from.size(), 9);
+  for (size_t i = 0; i < g.from.size(); ++i) {
+    const Eigen::Vector3d x = g.from[i], y = g.to[i] / g.to[i].z();
+    A.row(2 * i) << 0, 0, 0, -x.transpose(), y.y() * x.transpose();
+    A.row(2 * i + 1) << x.transpose(), 0, 0, 0, -y.x() * x.transpose();
   }
-  *rms_px = std::sqrt(sum / from.size());
+  const Eigen::JacobiSVD<Eigen::MatrixXd> svd(A, Eigen::ComputeFullV);
+  const Eigen::VectorXd h = svd.matrixV().col(8);
+  Eigen::Matrix3d G;
+  G << h(0), h(1), h(2), h(3), h(4), h(5), h(6), h(7), h(8);
+  if (G.determinant() < 0) G = -G;
+  // G = lambda (R + t n^T): on the plane's own directions (u n = 0) G acts
+  // as lambda R, whatever the translation t.
+  const Eigen::Vector3d n = normal.normalized();
+  const Eigen::Vector3d u1 = n.unitOrthogonal(), u2 = n.cross(u1);
+  const Eigen::Vector3d a1 = G * u1, a2 = G * u2;
+  const double lambda = std::sqrt(0.5 * (a1.squaredNorm() + a2.squaredNorm()));
+  if (!(lambda > 0)) return false;
+  const Eigen::Matrix3d M = a1 * u1.transpose() + a2 * u2.transpose() + (a1.cross(a2) / lambda) * n.transpose();
+  *R = procrustes(M);
+  const Eigen::Vector3d t = G * n / lambda - *R * n;
+  *rms_px = rmsPx(k, g, *R + t * n.transpose());
   return std::isfinite(*rms_px);
 }
 

@@ -49,6 +49,7 @@ std::string ImuOptions::validate() const {
   c.inRange("still_replace_seconds", still_replace_seconds, still_seconds, 3600.0);
   c.check(still_accel_max > 0 && still_accel_max <= 100, "still_accel_max", "must be in (0, 100]", still_accel_max);
   c.check(still_video_rate > 0 && still_video_rate <= 1, "still_video_rate", "must be in (0, 1]", still_video_rate);
+  c.inRange("video_bias_seconds", video_bias_seconds, 1.0, 3600.0);
   c.inRange("gravity", gravity, 1.0, 100.0);
   c.check(max_gyro > 0 && max_gyro <= 1000, "max_gyro", "must be in (0, 1000] rad/s", max_gyro);
   c.check(max_accel > gravity && max_accel <= 10000, "max_accel", "must be in (gravity, 10000] m/s^2", max_accel);
@@ -64,7 +65,7 @@ ImuOrientation::ImuOrientation(const ImuOptions& options) : options_(validated(o
 void ImuOrientation::reset() {
   window_.clear();
   bias_ = options_.gyroBias();
-  bias_estimated_ = false;
+  bias_source_ = BiasSource::kFixed;
   estimate_seconds_ = 0;
   still_count_ = 0;
   block_count_ = 0;
@@ -72,6 +73,7 @@ void ImuOrientation::reset() {
   initial_stretch_ = false;
   gaps_ = 0;
   gap_stamps_.clear();
+  jumps_.clear();
   last_gap_ = 0;
   video_.clear();
 }
@@ -215,7 +217,7 @@ void ImuOrientation::updateStill(const ImuSample& s) {
   const Eigen::Vector3d mg = block_gyro_sum_ / n, ma = block_accel_sum_ / n;
   block_count_ = 0;
   // Once a bias is known, only small deviations from it count as still.
-  const double gmax = bias_estimated_ ? options_.still_gyro_tight : options_.still_gyro_max;
+  const double gmax = biasEstimated() ? options_.still_gyro_tight : options_.still_gyro_max;
   const bool quiet = (mg - bias_).norm() < gmax &&
                      std::abs(ma.norm() - options_.gravity) < options_.still_accel_max;
   if (!quiet) {
@@ -239,7 +241,7 @@ void ImuOrientation::updateStill(const ImuSample& s) {
   // A new stretch replaces an earlier estimate only once it is about as long
   // as the one behind it (a short hover or a slow turn must not undo it).
   double needed = options_.still_seconds;
-  if (bias_estimated_ && !still_confirmed_)
+  if (biasEstimated() && !still_confirmed_)
     needed = std::max(needed, std::min(estimate_seconds_, options_.still_replace_seconds));
   const double lasted = s.stamp - still_start_;
   if (lasted < needed) return;
@@ -249,7 +251,7 @@ void ImuOrientation::updateStill(const ImuSample& s) {
     if (v != Video::kStill) return;
   }
   bias_ = still_gyro_sum_ / static_cast<double>(still_count_);
-  bias_estimated_ = true;
+  bias_source_ = BiasSource::kStill;
   estimate_seconds_ = lasted;
   if (!still_confirmed_) {
     still_confirmed_ = true;
@@ -258,6 +260,48 @@ void ImuOrientation::updateStill(const ImuSample& s) {
       window_.front().q_world_imu = levelFromAccel(still_accel_sum_);
     reintegrateFrom(still_start_);
   }
+}
+
+const char* ImuOrientation::biasSourceName(BiasSource s) {
+  switch (s) {
+    case BiasSource::kStill: return "still";
+    case BiasSource::kVideo: return "video";
+    case BiasSource::kFixed: break;
+  }
+  return "fixed";
+}
+
+bool ImuOrientation::setVideoGyroBias(const Eigen::Vector3d& bias, double from, double at) {
+  if (!options_.estimate_gyro_bias || biasEstimated() || !bias.allFinite() || !(bias.norm() <= options_.max_gyro))
+    return false;
+  bias_ = bias;
+  bias_source_ = BiasSource::kVideo;
+  if (window_.empty() || !std::isfinite(at)) return true;
+  // The last sample at or before `at`: its orientation is the one the new
+  // bias gives from `from` (when the samples in between allow it); the
+  // samples after it are integrated again.
+  auto last = std::upper_bound(window_.begin(), window_.end(), at,
+                               [](double t, const Entry& e) { return t < e.stamp; });
+  if (last == window_.begin()) return true;
+  --last;
+  auto first = std::lower_bound(window_.begin(), window_.end(), std::isfinite(from) ? from : at,
+                                [](const Entry& e, double t) { return e.stamp < t; });
+  if (first < last) {
+    Eigen::Quaterniond q = first->q_world_imu;
+    bool usable = true;
+    for (auto cur = std::next(first); cur <= last && usable; ++cur) {
+      usable = !cur->fused && !cur->after_gap;
+      Entry prev = *std::prev(cur);
+      prev.q_world_imu = q;
+      q = integrate(prev, cur->gyro, cur->stamp);
+    }
+    if (usable) {
+      jumps_.emplace_back(last->stamp, (q * last->q_world_imu.inverse()).normalized());
+      last->q_world_imu = q;
+    }
+  }
+  reintegrateFrom(last->stamp);
+  return true;
 }
 
 void ImuOrientation::reintegrateFrom(double stamp) {
@@ -276,6 +320,7 @@ void ImuOrientation::prune() {
   // newest] stays answerable.
   while (window_.size() > 2 && window_[1].stamp <= oldest) window_.pop_front();
   while (!gap_stamps_.empty() && gap_stamps_.front() <= window_.front().stamp) gap_stamps_.pop_front();
+  while (!jumps_.empty() && jumps_.front().first <= window_.front().stamp) jumps_.pop_front();
 }
 
 bool ImuOrientation::setTimeOffset(double seconds) {
@@ -308,13 +353,30 @@ bool ImuOrientation::R_world_cam(double t, Eigen::Matrix3d* R) const {
   return true;
 }
 
+bool ImuOrientation::turnAtImuStamps(double s0, double s1, Eigen::Matrix3d* R) const {
+  if (s1 < s0) {
+    if (!turnAtImuStamps(s1, s0, R)) return false;
+    if (R) R->transposeInPlace();
+    return true;
+  }
+  Eigen::Matrix3d A, B;
+  if (!atImuStamp(s0, &A) || !atImuStamp(s1, &B)) return false;
+  // The corrections in (s0, s1] taken off B, the latest first.
+  for (auto j = jumps_.rbegin(); j != jumps_.rend(); ++j)
+    if (j->first > s0 && j->first <= s1) B = j->second.inverse().toRotationMatrix() * B;
+  if (R) *R = A.transpose() * B;
+  return true;
+}
+
 bool ImuOrientation::R_cam1_cam2(double t1, double t2, Eigen::Matrix3d* R) const {
-  Eigen::Matrix3d R1, R2;
-  if (!R_world_cam(t1, &R1) || !R_world_cam(t2, &R2)) return false;
   // A gap in between: the rotation across it is unknown.
   const auto gap = std::upper_bound(gap_stamps_.begin(), gap_stamps_.end(), std::min(t1, t2) + offset_);
   if (gap != gap_stamps_.end() && *gap <= std::max(t1, t2) + offset_) return false;
-  if (R) *R = R1.transpose() * R2;
+  Eigen::Matrix3d R12;
+  if (!turnAtImuStamps(t1 + offset_, t2 + offset_, &R12)) return false;
+  // The camera's turn: the IMU's in the camera's axes.
+  const Eigen::Matrix3d R_ci = q_cam_imu_ ? q_cam_imu_->toRotationMatrix() : Eigen::Matrix3d::Identity();
+  if (R) *R = R_ci * R12 * R_ci.transpose();
   return true;
 }
 

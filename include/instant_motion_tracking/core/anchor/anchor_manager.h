@@ -37,6 +37,12 @@
 // The video's estimate is kept up also when tf gives the rotation, to check
 // it (rotationDisagreement()).
 //
+// The gyro bias is tracked from the video while the camera moves
+// (imu.video_bias; VideoGyroBias): each turn the gyro covers is also read off
+// the background's motion as a turn over the floor (rotationFromPlaneHomography,
+// the IMU's up as the normal) or a turn and zoom, whichever explains it
+// within kVideoBiasMaxRmsPx, and compared with the gyro's.
+//
 // Usage (live):
 //   imt::RegionManager regions(o.region_tracking, o.cache_seconds);
 //   imt::AnchorManager anchors(o.anchors, o.imu, o.default_hfov_deg, &regions);
@@ -51,6 +57,7 @@
 
 #include "instant_motion_tracking/core/anchor/cam_imu_rotation.h"
 #include "instant_motion_tracking/core/anchor/time_offset.h"
+#include "instant_motion_tracking/core/anchor/video_gyro_bias.h"
 #include "instant_motion_tracking/core/anchor/imu_orientation.h"
 #include "instant_motion_tracking/core/region/region_manager.h"
 #include "instant_motion_tracking/core/types.h"
@@ -61,6 +68,7 @@
 
 #include <cstdint>
 #include <deque>
+#include <limits>
 #include <map>
 #include <optional>
 #include <string>
@@ -129,6 +137,25 @@ class AnchorManager {
   // the last fit from the video (none before one had turns to work with).
   double timeOffset() const { return imu_.timeOffset(); }
   const std::optional<TimeOffsetFit>& timeOffsetFit() const { return time_offset_fit_; }
+  // The gyro bias in use (rad/s, IMU frame) and its source; the video's
+  // estimate of it while the camera moves (imu.video_bias; none before it
+  // has VideoGyroBias::kMinFrames frames), also when a still stretch gave
+  // the bias in use.
+  const Eigen::Vector3d& gyroBias() const { return imu_.gyroBias(); }
+  ImuOrientation::BiasSource gyroBiasSource() const { return imu_.biasSource(); }
+  const std::optional<VideoGyroBias::Estimate>& videoGyroBias() const { return video_bias_estimate_; }
+  // A frame counts toward the video's bias when the background's motion is
+  // explained by the camera's turn (over the floor, or not) to within this.
+  static constexpr double kVideoBiasMaxRmsPx = 1.0;
+  // The video's estimate is used once its standard error is under this
+  // (rad/s per axis; 0.06 deg/s), refitted every kVideoBiasRefitTurns turns
+  // read (keyed to the turns, which are read in the same order live and
+  // offline). What the old bias put into the orientation since the last
+  // estimate used (at most kVideoBiasReach of window_seconds back) is taken
+  // out at the turn's end (ImuOrientation::setVideoGyroBias).
+  static constexpr double kVideoBiasMaxSigma = 0.001;
+  static constexpr int kVideoBiasRefitTurns = 30;
+  static constexpr double kVideoBiasReach = 0.9;
   // Anchors add() accepts: depth 0 (the default) or in [kMinDepth, kMaxDepth]
   // m, at most kMaxAnchors at once (each tracks a region).
   static constexpr double kMinDepth = 0.01;
@@ -206,6 +233,7 @@ class AnchorManager {
   struct Turn {
     double t0 = 0, t1 = 0;
     Eigen::Vector3d theta_cam = Eigen::Vector3d::Zero();  // the camera's turn from t0 to t1 (rotation vector)
+    Eigen::Matrix3d H = Eigen::Matrix3d::Identity();
   };
   std::deque<Turn> turns_;
   static constexpr size_t kMaxWaitingTurns = 300;
@@ -217,6 +245,14 @@ class AnchorManager {
   size_t next_offset_fit_ = TimeOffsetEstimator::Options().min_turns;
   static constexpr size_t kOffsetRefitTurns = 60;
   std::optional<TimeOffsetFit> time_offset_fit_;
+  // The gyro bias from the video (imu.video_bias).
+  void addBiasTurn(const Turn& t, const Eigen::Matrix3d& R_imu0_imu1);
+  void fitVideoBias(double t1);
+  void clearVideoBias();
+  VideoGyroBias video_bias_;
+  std::optional<VideoGyroBias::Estimate> video_bias_estimate_;
+  int bias_turns_since_fit_ = 0;
+  double bias_applied_at_ = -std::numeric_limits<double>::infinity();  // IMU stamp of the last estimate used
   // The rotations in use, each from a stamp on (given ones: from -inf).
   std::vector<std::pair<double, Eigen::Quaterniond>> rotations_;
   const Eigen::Quaterniond* rotationAt(double t) const;  // nullptr: none at t

@@ -47,6 +47,19 @@ namespace imt {
 // H or the camera model is unusable, or the grid's rays fall behind the camera.
 bool rotationFromHomography(const CameraModel& k, const Eigen::Matrix3d& H, Eigen::Matrix3d* R, double* rms_px);
 
+// The rotation R (ideal rays at the previous frame -> rays at the current
+// one) of a camera moving over a plane with the given normal (camera frame,
+// either sign), from the plane's motion H between image pixels: H between
+// ideal rays is lambda (R + t n^T) for a translation t (over the plane's
+// distance), so on the plane's own directions it acts as the rotation alone,
+// however the camera moved. The floor under a walking camera is such a
+// plane, with the IMU's up as its normal: there a turn-and-zoom fit
+// (rotationFromHomography) reads part of the walk as a turn. `rms_px` is how
+// far the grid's images under H are from the plane model's (what decides
+// whether the background was that plane). False as rotationFromHomography().
+bool rotationFromPlaneHomography(const CameraModel& k, const Eigen::Matrix3d& H, const Eigen::Vector3d& normal,
+                                 Eigen::Matrix3d* R, double* rms_px);
+
 // The camera's turn over a frame interval as a rotation vector (the camera at
 // the frame in the camera at the previous one), from the frame's camera
 // motion; false when it has no model or the turn does not explain at least

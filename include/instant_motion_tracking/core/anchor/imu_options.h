@@ -27,6 +27,8 @@ struct ImuOptions {
   double still_replace_seconds = 3.0;
   double still_accel_max = 0.3;
   bool still_needs_video = true;
+  bool video_bias = true;
+  double video_bias_seconds = 30.0;
   double still_video_rate = 0.005;
   double gravity = 9.81;
   double max_gyro = 35.0;
@@ -59,6 +61,10 @@ struct ImuOptions {
     v("still_video_rate", still_video_rate,
       "rad/s; the video's mean turn rate over a still stretch must stay under this, and each frame's under "
       "4 times it");
+    v("video_bias", video_bias,
+      "while the camera moves, the bias is tracked from the video (the gyro's turn between frames against the "
+      "camera's turn seen in the background) and used until a still stretch gives one (needs estimate_gyro_bias)");
+    v("video_bias_seconds", video_bias_seconds, "s of frames the video's bias estimate averages over");
     v("gravity", gravity, "m/s^2, local gravity magnitude");
     v("max_gyro", max_gyro,
       "rad/s; a sample whose gyro magnitude is over this is dropped as broken (2000 deg/s, the widest MEMS range)");

@@ -34,6 +34,10 @@
 // the stretch the stream began with, the initial level is re-taken from its
 // mean accelerometer reading (less noisy than the first reading).
 //
+// While the camera moves, the video tracks the bias instead (video_bias):
+// see setVideoGyroBias() and VideoGyroBias (video_gyro_bias.h); a still
+// stretch's estimate, when there is one, is kept over it.
+//
 // The video's agreement (still_needs_video, the default): a slow smooth turn
 // (under still_gyro_max, with the accelerometer steady) feels still to the
 // IMU, and its rate would be taken for the bias. So the camera's turns seen
@@ -111,6 +115,11 @@ class ImuOrientation {
   // camera at t1 (R_world_cam(t1)^T R_world_cam(t2)). Yaw-free and bias-light:
   // only the gyro between t1 and t2 matters. False across a gap.
   bool R_cam1_cam2(double t1, double t2, Eigen::Matrix3d* R) const;
+  // The IMU's turn between two IMU stamps (the IMU at s1 in the IMU at s0),
+  // as the gyro measured it: without what setVideoGyroBias() took out in
+  // between (that is a correction of the orientation, not a motion).
+  // R_cam1_cam2() is read the same way. False outside the window.
+  bool turnAtImuStamps(double s0, double s1, Eigen::Matrix3d* R) const;
   // Rotation-only homography mapping pixels at t1 to pixels at t2:
   // H = K R_cam2_cam1 K^-1, H(2,2) = 1 (pure rotation or distant scene).
   bool rotationHomography(const Eigen::Matrix3d& K, double t1, double t2, Eigen::Matrix3d* H) const;
@@ -129,7 +138,25 @@ class ImuOrientation {
 
   // The bias currently subtracted (fixed or estimated), rad/s, IMU frame.
   const Eigen::Vector3d& gyroBias() const { return bias_; }
-  bool biasEstimated() const { return bias_estimated_; }
+  // Where it came from: the options, a still stretch, or the video.
+  enum class BiasSource { kFixed, kStill, kVideo };
+  static const char* biasSourceName(BiasSource s);
+  BiasSource biasSource() const { return bias_source_; }
+  bool biasEstimated() const { return bias_source_ == BiasSource::kStill; }  // from a still stretch
+  // A bias the video found while the camera moved (VideoGyroBias;
+  // AnchorManager gives it) replaces the one in use from IMU stamp `at` on.
+  // What the old bias put into the orientation between `from` and `at` is
+  // taken out at `at`: the orientation at the last sample at or before `at`
+  // becomes the one integrated with the new bias from the first sample at or
+  // after `from`, and the samples after it follow. The orientations before
+  // `at` stay as they were: a frame answered live reads the same later
+  // (offline), and an anchor placed in that stretch keeps its orientation
+  // at placement (it then carries the correction of the stretch before its
+  // placement). Without samples to do so (a gap, fused orientation) nothing
+  // is taken out. Refused (false) when a still stretch gave the bias (the
+  // gyro's own mean is more precise), when estimate_gyro_bias is off, or
+  // when not finite or over max_gyro.
+  bool setVideoGyroBias(const Eigen::Vector3d& bias, double from, double at);
   bool empty() const { return window_.empty(); }
   size_t size() const { return window_.size(); }
   size_t gaps() const { return gaps_; }  // gaps met since construction or reset()
@@ -161,10 +188,13 @@ class ImuOrientation {
   std::optional<Eigen::Quaterniond> q_cam_imu_;
   double offset_ = 0;  // s, setTimeOffset()
   Eigen::Vector3d bias_ = Eigen::Vector3d::Zero();
-  bool bias_estimated_ = false;
+  BiasSource bias_source_ = BiasSource::kFixed;
   double estimate_seconds_ = 0;  // duration of the still stretch behind the estimate
   std::deque<Entry> window_;
   std::deque<double> gap_stamps_;  // stamps of the entries after a gap, within the window
+  // What setVideoGyroBias() took out: at the entry stamped `first`, the
+  // orientations from it on were turned by `second` (world frame, on the left).
+  std::deque<std::pair<double, Eigen::Quaterniond>> jumps_;
   size_t gaps_ = 0;
   double last_gap_ = 0;
   bool initial_stretch_ = false;  // the current still stretch began with the stream's first sample

@@ -76,9 +76,20 @@ void TrackingSession::setKeepImages(bool keep) {
 
 bool TrackingSession::dropByTime(double stamp) {
   last_drop_.clear();
+  last_gap_.clear();
   const double newest = newest_stamp_;
   if (!std::isfinite(stamp)) return false;  // the analysis and the cache refuse it
   if (stamp > newest || stamp <= newest - options_.time_jump_reset_seconds) {
+    if (std::isfinite(newest) && stamp - newest > options_.cache_seconds) {
+      // Beyond the cache: nothing before it can be asked for any more, but
+      // the tracks go on across it (counted, not a reset).
+      ++time_gaps_;
+      char text[160];
+      std::snprintf(text, sizeof(text),
+                    "frame stamp %.6f is %.3f s after the newest %.6f (over cache_seconds %.3g): a gap, tracked across",
+                    stamp, stamp - newest, newest, options_.cache_seconds);
+      last_gap_ = text;
+    }
     newest_stamp_ = stamp;  // the next frame, a gap, or a jump back (a restart)
     return false;
   }

@@ -150,11 +150,13 @@ void SessionNodelet::feed(const instant_motion_tracking::MotionDataConstPtr& msg
     return;
   }
   hub_->noteHeader(msg->header, received);
-  std::string dropped;
+  std::string dropped, gap;
   session([&](TrackingSession& s) {
     s.pushMotion(md, gray);
     dropped = s.lastDrop();
+    gap = s.lastGap();
   });
+  if (!gap.empty()) NODELET_WARN_THROTTLE(5.0, "%s", gap.c_str());
   if (!dropped.empty()) {
     // A repeated stamp, or one slightly behind: dropped, tracks kept.
     NODELET_WARN_THROTTLE(5.0, "%s", dropped.c_str());

@@ -412,6 +412,8 @@ class TrackBagRun {
       notes_.warn(std::to_string(drops.duplicate + drops.behind) + " frame(s) dropped by the time rules (" +
                   std::to_string(drops.duplicate) + " repeated stamps, " + std::to_string(drops.behind) +
                   " slightly behind the newest; first: " + first_drop_ + ")");
+    if (const size_t gaps = session_->timeGaps())
+      notes_.note(std::to_string(gaps) + " gap(s) in the frame stamps over cache_seconds, tracked across");
     const std::string disagreement = session_->rotationDisagreement();
     if (!disagreement.empty()) notes_.warn(disagreement);
     for (const std::string& m : libraryLog().messages) notes_.warn(m);
@@ -474,6 +476,7 @@ class TrackBagRun {
                               {"frames", e->frames}};
     d["frames_dropped"] = {{"duplicate_stamp", session_->timeDrops().duplicate},
                            {"stamp_behind", session_->timeDrops().behind}};
+    d["frame_gaps"] = session_->timeGaps();
     d["frames_read_again"] = rereads_;
     d["models"] = model_counts_;
     nlohmann::json resets = nlohmann::json::object();

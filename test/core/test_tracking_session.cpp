@@ -462,6 +462,8 @@ namespace {
 // Issue 16's time rules. Before them, a bag with every second image stamp
 // repeated gave 15 full resets in 45 frames, each wiping every region.
 // cards (no IMU needed): a region on card 1, given at frame 0, live.
+// Repeated and slightly late stamps are dropped, a jump back resets, a jump
+// forward beyond the cache is a gap (counted, tracked across).
 TEST(TrackingSession, RepeatedAndSlightlyLateStampsAreDroppedNotResets) {
   const Rendered r = render("cards", 2.0, 2);
   ASSERT_TRUE(r.scene);
@@ -471,6 +473,7 @@ TEST(TrackingSession, RepeatedAndSlightlyLateStampsAreDroppedNotResets) {
     if (reg.id == 1) card = &reg;
   ASSERT_NE(card, nullptr);
   // `extra(k)`: stamps fed after frame k's own (each a copy of frame k's image).
+  size_t gaps = 0;
   auto run = [&](const std::function<std::vector<double>(int, double)>& extra, int* resets, double* iou) {
     TrackingSession s(PipelineOptions(), TrackingSession::Mode::kLive);
     std::string err;
@@ -500,6 +503,7 @@ TEST(TrackingSession, RepeatedAndSlightlyLateStampsAreDroppedNotResets) {
       if (k == 0) EXPECT_TRUE(s.addRegion(0, t, card->box, &id, &err)) << err;
     }
     *iou = n ? sum / n : 0;
+    gaps = s.timeGaps();
     return s.timeDrops();
   };
   int resets = 0;
@@ -524,6 +528,45 @@ TEST(TrackingSession, RepeatedAndSlightlyLateStampsAreDroppedNotResets) {
           &iou);
   EXPECT_GE(resets, 1);
   EXPECT_EQ(d.behind + d.duplicate, 0u);
+  EXPECT_EQ(gaps, 0u);
+  // A jump forward beyond the cache (cache_seconds, 10 s) from frame 40 on:
+  // a gap, counted and tracked across, not a reset.
+  int gap_resets = 0;
+  double gap_iou = 0;
+  TrackingSession s(PipelineOptions(), TrackingSession::Mode::kLive);
+  uint32_t id = 0;
+  std::string err;
+  double sum = 0;
+  int n = 0;
+  for (int k = 0; k < static_cast<int>(r.frames.size()); ++k) {
+    const double t = r.scene->frameStamp(k) + (k >= 40 ? 12.0 : 0.0);
+    s.analyze(r.frames[k], t);
+    if (k == 40) {
+      EXPECT_NE(s.lastGap().find("a gap, tracked across"), std::string::npos) << s.lastGap();
+    } else {
+      EXPECT_EQ(s.lastGap(), "") << k;
+    }
+    s.advance(true);
+    for (const FrameResult& fr : s.takeResults()) {
+      gap_resets += !fr.reset.empty();
+      for (const RegionState& st : fr.regions)
+        for (const auto& reg : r.scene->frameTruth(k).regions)
+          if (st.id == id && reg.id == 1 && reg.visible_fraction > 0.5) {
+            sum += st.status == RegionStatus::kLost ? 0 : test::iou(st.box, reg.box);
+            ++n;
+          }
+    }
+    if (k == 0) EXPECT_TRUE(s.addRegion(0, t, card->box, &id, &err)) << err;
+  }
+  gap_iou = n ? sum / n : 0;
+  std::printf("a 12 s gap at frame 40: mean IoU %.3f (%.3f without), %zu gap(s), %d resets\n", gap_iou, clean,
+              s.timeGaps(), gap_resets);
+  EXPECT_EQ(s.timeGaps(), 1u);
+  EXPECT_EQ(gap_resets, 0);
+  // The frames on either side are consecutive images: the card is tracked
+  // across as well as without the gap (its velocity is scaled by the step's
+  // length, which the gap makes 360 frames long: within 0.05).
+  EXPECT_NEAR(gap_iou, clean, 0.05);
 }
 
 }  // namespace

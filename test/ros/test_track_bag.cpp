@@ -237,6 +237,7 @@ TEST_F(TrackBag, StampsRepeatingOrSlightlyBehindAreDroppedAJumpBackResets) {
   const nlohmann::json j = nlohmann::json::parse(readFile(out + "/summary.json"));
   EXPECT_EQ(j["frames_dropped"]["duplicate_stamp"], 1);
   EXPECT_EQ(j["frames_dropped"]["stamp_behind"], 1);
+  EXPECT_EQ(j["frame_gaps"], 0);  // the jump back is a restart, not a gap
   // Frames 3 and 5 are not written; frame 9 (the 8th written) is, its
   // analysis restarted.
   const auto rows = readCsv(out + "/camera_motion.csv");

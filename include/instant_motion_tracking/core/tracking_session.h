@@ -126,6 +126,11 @@ class TrackingSession {
     size_t duplicate = 0, behind = 0;
   };
   const TimeDrops& timeDrops() const { return time_drops_; }
+  // Jumps forward over cache_seconds since construction (gaps: counted,
+  // tracked across), and the last one's message ("" when the last frame
+  // given was none).
+  size_t timeGaps() const { return time_gaps_; }
+  const std::string& lastGap() const { return last_gap_; }
   // Why the last analyze() restarted the motion analysis ("" when it did not).
   const std::string& lastAnalysisReset() const { return analyzer_.lastReset(); }
   // Queues motion data analysed elsewhere (a tracker nodelet fed by the
@@ -204,6 +209,8 @@ class TrackingSession {
   // The time rules (analyze()): true when the frame is to be dropped.
   bool dropByTime(double stamp);
   double newest_stamp_ = -std::numeric_limits<double>::infinity();
+  size_t time_gaps_ = 0;
+  std::string last_gap_;
   std::string last_drop_;
   TimeDrops time_drops_;
   StageTimes times_;

@@ -2,7 +2,9 @@
 # (Debian 12 packages only), sets up the environment and builds the package
 # incrementally in _build/ (git-ignored). A second run with nothing changed
 # installs nothing and rebuilds nothing.
-# Knobs: IMT_BUILD_DIR (default _build), IMT_BUILD_TYPE (default RelWithDebInfo).
+# Knobs: IMT_BUILD_DIR (default _build), IMT_BUILD_TYPE (default RelWithDebInfo),
+# IMT_CMAKE_ARGS (more cmake arguments at the first configure, e.g.
+# -DIMT_SANITIZE=ON: scripts/sanitize.sh).
 
 IMT_ROOT=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 IMT_BUILD_DIR=${IMT_BUILD_DIR:-$IMT_ROOT/_build}
@@ -49,8 +51,9 @@ imt_build() {
   if [ ! -f "$IMT_BUILD_DIR/Makefile" ]; then
     imt_log "configuring in $IMT_BUILD_DIR"
     mkdir -p "$IMT_BUILD_DIR"
+    # shellcheck disable=SC2086
     cmake -S "$IMT_ROOT" -B "$IMT_BUILD_DIR" -DCMAKE_BUILD_TYPE="$IMT_BUILD_TYPE" \
-      -DPYTHON_EXECUTABLE=/usr/bin/python3 >"$IMT_BUILD_DIR/cmake.log" 2>&1 ||
+      -DPYTHON_EXECUTABLE=/usr/bin/python3 ${IMT_CMAKE_ARGS:-} >"$IMT_BUILD_DIR/cmake.log" 2>&1 ||
       { cat "$IMT_BUILD_DIR/cmake.log" >&2; return 1; }
   fi
   imt_log "building: $*"

@@ -3,8 +3,10 @@
 # core/io/ROS gtests and the rostests. Prints a closing count line
 # "N passed, N failed, N skipped" and exits non-zero on any failure.
 # Extra arguments go to ctest (e.g. -R rostest, --output-on-failure is always on);
-# without them, a 3-minute soak of the live graph under load runs last
-# (scripts/soak.sh; IMT_SOAK_MINUTES=N to change, 0 to skip).
+# without them, the quick core/io tests under ASan and UBSan run next
+# (scripts/sanitize.sh; IMT_SANITIZE_TESTS=0 to skip) and a 3-minute soak of
+# the live graph under load last (scripts/soak.sh; IMT_SOAK_MINUTES=N to
+# change, 0 to skip).
 set -euo pipefail
 source "$(dirname "$0")/setup.sh"
 imt_install
@@ -15,6 +17,25 @@ results="$IMT_BUILD_DIR/test_results"
 rm -rf "$results"
 status=0
 (cd "$IMT_BUILD_DIR" && ctest --output-on-failure -j"$(nproc)" "$@") || status=$?
+
+# The core and io tests under AddressSanitizer and UBSan (scripts/sanitize.sh,
+# the quick ones; a build of its own in _build_sanitize/), one more test case.
+# IMT_SANITIZE_TESTS=0 skips it (as do extra ctest arguments).
+if [ $# -eq 0 ] && [ "${IMT_SANITIZE_TESTS:-1}" != 0 ]; then
+  mkdir -p "$results/sanitize"
+  sanitize_status=0
+  "$IMT_ROOT/scripts/sanitize.sh" >"$IMT_BUILD_DIR/sanitize.log" 2>&1 || sanitize_status=$?
+  cat "$IMT_BUILD_DIR/sanitize.log"
+  /usr/bin/python3 - "$results/sanitize/sanitize.xml" "$sanitize_status" <<'PY'
+import sys
+path, status = sys.argv[1], int(sys.argv[2])
+failure = "" if status == 0 else '<failure message="scripts/sanitize.sh failed (exit %d); see sanitize.log"/>' % status
+with open(path, "w") as f:
+    f.write('<testsuite name="sanitize" tests="1"><testcase classname="sanitize" name="CoreAndIoTestsUnderAsanAndUbsan">%s'
+            '</testcase></testsuite>\n' % failure)
+PY
+  [ "$sanitize_status" -eq 0 ] || status=1
+fi
 
 # The live graph under load for 3 minutes (scripts/soak.sh), after the other
 # tests (its busy loops would slow them); its verdict is one more test case.

@@ -126,6 +126,23 @@ TEST(ImuOrientation, VideoBiasReplacesAFixedBiasNotAStillOne) {
   ASSERT_TRUE(imu.atImuStamp(1.0, &M));
   const Eigen::Matrix3d at1 = quaternionExp(Eigen::Vector3d(0, 0, 0.2)).toRotationMatrix();
   EXPECT_NEAR(Eigen::AngleAxisd(at1.transpose() * A.transpose() * M).angle(), 0.01, 1e-3);
+  // Given at a stamp before every sample: every sample takes it.
+  {
+    ImuOrientation early(o);
+    for (int i = 0; i <= 400; ++i) {
+      ImuSample s;
+      s.stamp = i * 0.005;
+      s.gyro = Eigen::Vector3d(0, 0, 0.2) + bias;
+      s.accel = Eigen::Vector3d(0, 0, 9.81);
+      ASSERT_TRUE(early.add(s));
+    }
+    ASSERT_TRUE(early.setVideoGyroBias(bias, -1.0, -1.0));
+    Eigen::Matrix3d E0, E1;
+    ASSERT_TRUE(early.atImuStamp(0.0, &E0));
+    ASSERT_TRUE(early.atImuStamp(2.0, &E1));
+    const Eigen::Matrix3d truth = quaternionExp(Eigen::Vector3d(0, 0, 0.4)).toRotationMatrix();
+    EXPECT_LT(Eigen::AngleAxisd(truth.transpose() * E0.transpose() * E1).angle() * kDeg, 1e-6);
+  }
   // A still second: the gyro's own mean takes over, and the video's is refused.
   for (int i = 1; i <= 300; ++i) {
     ImuSample s;

@@ -282,7 +282,11 @@ bool ImuOrientation::setVideoGyroBias(const Eigen::Vector3d& bias, double from, 
   // samples after it are integrated again.
   auto last = std::upper_bound(window_.begin(), window_.end(), at,
                                [](double t, const Entry& e) { return t < e.stamp; });
-  if (last == window_.begin()) return true;
+  if (last == window_.begin()) {
+    // Every sample is after `at`: all of them take the new bias.
+    reintegrateFrom(window_.front().stamp);
+    return true;
+  }
   --last;
   auto first = std::lower_bound(window_.begin(), window_.end(), std::isfinite(from) ? from : at,
                                 [](const Entry& e, double t) { return e.stamp < t; });

@@ -215,9 +215,10 @@ void AnchorManager::update() {
     const MotionData& md = cache.at(cache.lastSeq());
     const double t0 = cache.at(cache.lastSeq() - 1).stamp;
     Eigen::Vector3d theta = Eigen::Vector3d::Zero();
-    const bool known = cameraTurn(intrinsics(), md.camera, &theta);
+    double rms = 0;
+    const bool known = cameraTurn(intrinsics(), md.camera, &theta, &rms);
     if (known) {
-      turns_.push_back({t0, md.stamp, theta, md.camera.H});
+      turns_.push_back({t0, md.stamp, theta, rms, md.camera.H});
       time_offset_.add(t0, md.stamp, theta.norm());
     }
     // The IMU's stillness needs the video's agreement (a slow turn feels still).
@@ -257,7 +258,7 @@ void AnchorManager::readTurns() {
     const Turn t = turns_.front();
     turns_.pop_front();
     Eigen::Matrix3d turn;  // the IMU at t1 in the IMU at t0
-    if (!imu_.R_cam1_cam2(t.t0, t.t1, nullptr) ||  // before the IMU began, or a gap
+    if (imu_.acrossGap(t.t0, t.t1) ||  // before the IMU began, or a gap
         !imu_.turnAtImuStamps(t.t0 + imu_.timeOffset(), t.t1 + imu_.timeOffset(), &turn))
       continue;
     video_rotation_.add(t.theta_cam, rotationVector(turn));
@@ -282,18 +283,16 @@ void AnchorManager::addBiasTurn(const Turn& t, const Eigen::Matrix3d& R_imu0_imu
   const Eigen::Quaterniond* q = rotationAt(t.t1);
   if (!o.video_bias || !o.estimate_gyro_bias || o.use_fused_orientation || !q) return;
   // The camera's turn: over the floor (the IMU's up as the plane's normal)
-  // or as a turn and a zoom, whichever explains the background's motion
-  // better; neither within kVideoBiasMaxRmsPx: no reading.
-  const CameraModel k = intrinsics();
-  Eigen::Matrix3d R_plane, R_turn;
-  double rms_plane = std::numeric_limits<double>::infinity(), rms_turn = rms_plane;
-  const Eigen::Vector3d up = imu_.upInCamera(t.t0);
-  if (!rotationFromPlaneHomography(k, t.H, up, &R_plane, &rms_plane)) rms_plane = std::numeric_limits<double>::infinity();
-  if (!rotationFromHomography(k, t.H, &R_turn, &rms_turn)) rms_turn = std::numeric_limits<double>::infinity();
-  const double rms = std::min(rms_plane, rms_turn);
-  if (!(rms <= kVideoBiasMaxRmsPx)) return;
+  // or as a turn and a zoom (the turn's own, cameraTurn), whichever explains
+  // the background's motion better; neither within kVideoBiasMaxRmsPx: no
+  // reading.
+  Eigen::Matrix3d R_plane;
+  double rms_plane = std::numeric_limits<double>::infinity();
+  if (!rotationFromPlaneHomography(intrinsics(), t.H, imu_.upInCamera(t.t0), &R_plane, &rms_plane))
+    rms_plane = std::numeric_limits<double>::infinity();
+  if (!(std::min(rms_plane, t.rms_px) <= kVideoBiasMaxRmsPx)) return;
   // R maps rays at t0 to rays at t1: the camera at t1 in the camera at t0 is R^T.
-  const Eigen::Vector3d theta_cam = rotationVector((rms_plane <= rms_turn ? R_plane : R_turn).transpose());
+  const Eigen::Vector3d theta_cam = rms_plane <= t.rms_px ? rotationVector(R_plane.transpose()) : t.theta_cam;
   const double dt = t.t1 - t.t0;
   // The gyro's turn with the bias in use put back (the window was integrated with it).
   video_bias_.add(t.t1, dt, rotationVector(R_imu0_imu1) + imu_.gyroBias() * dt, theta_cam);

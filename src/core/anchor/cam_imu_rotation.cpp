@@ -132,13 +132,14 @@ bool rotationFromPlaneHomography(const CameraModel& k, const Eigen::Matrix3d& H,
   return std::isfinite(*rms_px);
 }
 
-bool cameraTurn(const CameraModel& k, const CameraMotion& camera, Eigen::Vector3d* theta) {
+bool cameraTurn(const CameraModel& k, const CameraMotion& camera, Eigen::Vector3d* theta, double* rms_px) {
   Eigen::Matrix3d R_c1c0;
   double rms = 0;
   if (camera.model == MotionModel::kInvalid || !rotationFromHomography(k, camera.H, &R_c1c0, &rms)) return false;
   const Eigen::Vector3d turn = rotationVector(R_c1c0.transpose());
   if (!(rms <= std::max(0.5, k.fx * turn.norm()))) return false;
   *theta = turn;
+  if (rms_px) *rms_px = rms;
   return true;
 }
 

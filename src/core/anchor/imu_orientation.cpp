@@ -372,10 +372,13 @@ bool ImuOrientation::turnAtImuStamps(double s0, double s1, Eigen::Matrix3d* R) c
   return true;
 }
 
-bool ImuOrientation::R_cam1_cam2(double t1, double t2, Eigen::Matrix3d* R) const {
-  // A gap in between: the rotation across it is unknown.
+bool ImuOrientation::acrossGap(double t1, double t2) const {
   const auto gap = std::upper_bound(gap_stamps_.begin(), gap_stamps_.end(), std::min(t1, t2) + offset_);
-  if (gap != gap_stamps_.end() && *gap <= std::max(t1, t2) + offset_) return false;
+  return gap != gap_stamps_.end() && *gap <= std::max(t1, t2) + offset_;
+}
+
+bool ImuOrientation::R_cam1_cam2(double t1, double t2, Eigen::Matrix3d* R) const {
+  if (acrossGap(t1, t2)) return false;
   Eigen::Matrix3d R12;
   if (!turnAtImuStamps(t1 + offset_, t2 + offset_, &R12)) return false;
   // The camera's turn: the IMU's in the camera's axes.

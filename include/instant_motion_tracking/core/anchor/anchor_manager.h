@@ -233,7 +233,8 @@ class AnchorManager {
   struct Turn {
     double t0 = 0, t1 = 0;
     Eigen::Vector3d theta_cam = Eigen::Vector3d::Zero();  // the camera's turn from t0 to t1 (rotation vector)
-    Eigen::Matrix3d H = Eigen::Matrix3d::Identity();
+    double rms_px = 0;                                     // what the turn and zoom leave of H (cameraTurn)
+    Eigen::Matrix3d H = Eigen::Matrix3d::Identity();       // the frame's camera motion
   };
   std::deque<Turn> turns_;
   static constexpr size_t kMaxWaitingTurns = 300;

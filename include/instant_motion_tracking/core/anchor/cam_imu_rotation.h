@@ -68,7 +68,8 @@ bool rotationFromPlaneHomography(const CameraModel& k, const Eigen::Matrix3d& H,
 // over a near scene or the background was not what moved. (A rolling shutter
 // leaves 1-3 px of a 5 px turn on the phone clip: such frames stay in, and
 // the estimator's residual test judges them together.)
-bool cameraTurn(const CameraModel& k, const CameraMotion& camera, Eigen::Vector3d* theta);
+// `rms_px` (optional): what the turn and zoom leave, as rotationFromHomography's.
+bool cameraTurn(const CameraModel& k, const CameraMotion& camera, Eigen::Vector3d* theta, double* rms_px = nullptr);
 
 class CamImuRotationEstimator {
  public:

@@ -120,6 +120,9 @@ class ImuOrientation {
   // between (that is a correction of the orientation, not a motion).
   // R_cam1_cam2() is read the same way. False outside the window.
   bool turnAtImuStamps(double s0, double s1, Eigen::Matrix3d* R) const;
+  // A gap in the IMU stream between image stamps t1 and t2 (either order):
+  // the rotation across it is unknown.
+  bool acrossGap(double t1, double t2) const;
   // Rotation-only homography mapping pixels at t1 to pixels at t2:
   // H = K R_cam2_cam1 K^-1, H(2,2) = 1 (pure rotation or distant scene).
   bool rotationHomography(const Eigen::Matrix3d& K, double t1, double t2, Eigen::Matrix3d* H) const;

@@ -89,11 +89,13 @@ std::string AnchorNodelet::rotationReport(const TrackingSession& s) {
   // The camera-IMU time offset in use, and the video's.
   char offset[128];
   const auto& f = s.timeOffsetFit();
+  const char* from = AnchorManager::offsetSourceName(s.timeOffsetSource());
   if (f && f->found)
-    std::snprintf(offset, sizeof(offset), "; time offset %.1f ms (video: %.1f ms, correlation %.2f)",
-                  1000 * s.timeOffset(), 1000 * f->offset, f->correlation);
+    std::snprintf(offset, sizeof(offset), "; time offset %.1f ms from %s (video: %.1f ms, correlation %.2f)",
+                  1000 * s.timeOffset(), from, 1000 * f->offset, f->correlation);
   else
-    std::snprintf(offset, sizeof(offset), "; time offset %.1f ms (video: none yet)", 1000 * s.timeOffset());
+    std::snprintf(offset, sizeof(offset), "; time offset %.1f ms from %s (video: none yet)", 1000 * s.timeOffset(),
+                  from);
   return r + fit + offset + biasReport(s);
 }
 
@@ -107,7 +109,8 @@ std::string AnchorNodelet::biasReport(const TrackingSession& s) {
                 ImuOrientation::biasSourceName(s.gyroBiasSource()));
   char video[96];
   if (const auto& e = s.videoGyroBias())
-    std::snprintf(video, sizeof(video), " (video: +-%.3f over %d frames)", e->sigma.norm() * kDeg, e->frames);
+    std::snprintf(video, sizeof(video), " (video: +-%.3f over %d frames; gyro late by %.1f +- %.1f ms)",
+                  e->sigma.norm() * kDeg, e->frames, 1000 * e->lateness, 1000 * e->lateness_sigma);
   else
     std::snprintf(video, sizeof(video), " (video: none yet)");
   return std::string(text) + video;

@@ -461,6 +461,7 @@ class TrackBagRun {
     }
     // The camera-IMU time offset in use, and what the video showed of it.
     d["imu_time_offset"] = session_->timeOffset();
+    d["imu_time_offset_source"] = imt::AnchorManager::offsetSourceName(session_->timeOffsetSource());
     d["imu_time_offset_video"] = nullptr;
     if (const auto& f = session_->timeOffsetFit())
       d["imu_time_offset_video"] = {{"offset", f->offset}, {"found", f->found}, {"correlation", f->correlation},
@@ -473,7 +474,8 @@ class TrackBagRun {
     if (const auto& e = session_->videoGyroBias())
       d["gyro_bias_video"] = {{"bias", {e->bias.x(), e->bias.y(), e->bias.z()}},
                               {"sigma", {e->sigma.x(), e->sigma.y(), e->sigma.z()}},
-                              {"frames", e->frames}};
+                              {"frames", e->frames}, {"lateness", e->lateness},
+                              {"lateness_sigma", e->lateness_sigma}};
     d["frames_dropped"] = {{"duplicate_stamp", session_->timeDrops().duplicate},
                            {"stamp_behind", session_->timeDrops().behind}};
     d["frame_gaps"] = session_->timeGaps();

@@ -274,6 +274,7 @@ struct WalkFigures {
   bool tracked_while_calibrating = false;  // a `tracked` state before it was found
   std::string disagreement;               // AnchorManager::rotationDisagreement() at the end
   double time_offset = 0;                 // s, AnchorManager::timeOffset() at the end
+  AnchorManager::OffsetSource offset_source = AnchorManager::OffsetSource::kParameter;
   Eigen::Vector3d gyro_bias = Eigen::Vector3d::Zero();  // rad/s, the bias in use at the end
   ImuOrientation::BiasSource bias_source = ImuOrientation::BiasSource::kFixed;
   std::optional<VideoGyroBias::Estimate> video_bias;  // the video's at the end
@@ -420,6 +421,7 @@ void runWalk(WalkFigures* out, OutOfView mode = OutOfView::kVisual,
   }
   out->disagreement = anchors.rotationDisagreement();
   out->time_offset = anchors.timeOffset();
+  out->offset_source = anchors.timeOffsetSource();
   out->gyro_bias = anchors.gyroBias();
   out->bias_source = anchors.gyroBiasSource();
   out->video_bias = anchors.videoGyroBias();
@@ -550,16 +552,19 @@ TEST(AnchorManager, FloorWalkSlowTurnsWithAGyroBias) {
 // on every walk; anchors.estimate_imu_time_offset applies it.
 TEST(AnchorManager, FloorWalkTimeOffsetFromTheVideo) {
   std::map<int, TimeOffsetFit> fits;
+  std::map<int, std::optional<VideoGyroBias::Estimate>> bias_fits;
   for (const int late_ms : {-30, 0, 40}) {
     WalkFigures f;
     WalkSetup setup;
     setup.imu_late = late_ms / 1000.0;
     runWalk(&f, OutOfView::kVisual, std::nullopt, std::nullopt, setup);
     fits[late_ms] = f.offset_fit;
+    bias_fits[late_ms] = f.video_bias;
     std::printf("IMU %+d ms late: estimated %.1f ms (correlation %.3f; %.3f at 0 ms) over %d turns; gyro bias %.4f "
-                "deg/s from %s\n",
+                "deg/s from %s; the bias fit's lateness %.1f +- %.1f ms\n",
                 late_ms, 1000 * f.offset_fit.offset, f.offset_fit.correlation, f.offset_fit.at_zero, f.offset_fit.turns,
-                f.gyro_bias.norm() * 180 / M_PI, ImuOrientation::biasSourceName(f.bias_source));
+                f.gyro_bias.norm() * 180 / M_PI, ImuOrientation::biasSourceName(f.bias_source),
+                f.video_bias ? 1000 * f.video_bias->lateness : NAN, f.video_bias ? 1000 * f.video_bias->lateness_sigma : NAN);
     ASSERT_TRUE(f.offset_fit.found) << late_ms << " ms";
     EXPECT_EQ(f.time_offset, 0.0) << "applied only when anchors.estimate_imu_time_offset says so";
   }
@@ -571,7 +576,17 @@ TEST(AnchorManager, FloorWalkTimeOffsetFromTheVideo) {
   EXPECT_NEAR(1000 * (fits[40].offset - fits[0].offset), 40, 2);
   EXPECT_NEAR(1000 * (fits[-30].offset - fits[0].offset), -30, 2);
   EXPECT_LE(std::abs(fits[0].offset), 0.020);
-  // Applied, with the IMU 40 ms late: the orientation error against the
+  // The gyro bias's fit reads the offset too, as the lateness of the gyro
+  // against the frames (VideoGyroBias), without the scene's bias: measured
+  // +29.8, +0.2 and -39.2 ms (the offset in use, 0, less the true one),
+  // each +- 0.1-0.3 ms. 2 ms: its linear model (a rate plus the lateness
+  // times the rate's change) is 2% short at 40 ms.
+  for (const auto& [late_ms, e] : bias_fits) {
+    ASSERT_TRUE(e) << late_ms << " ms";
+    EXPECT_NEAR(1000 * e->lateness, -late_ms, 2) << "the offset in use (0) less the true one";
+  }
+  // Applied, with the IMU 40 ms late: the correlation's offset first, then
+  // the bias fit's refinement of it; the orientation error against the
   // offset left alone.
   WalkFigures ignored, applied;
   WalkSetup setup;
@@ -579,15 +594,22 @@ TEST(AnchorManager, FloorWalkTimeOffsetFromTheVideo) {
   runWalk(&ignored, OutOfView::kVisual, std::nullopt, std::nullopt, setup);
   setup.anchors.estimate_imu_time_offset = true;
   runWalk(&applied, OutOfView::kVisual, std::nullopt, std::nullopt, setup);
-  std::printf("IMU 40 ms late: orientation median %.3f deg with the offset applied (%.1f ms), %.3f deg without\n",
-              median(applied.rot), 1000 * applied.time_offset, median(ignored.rot));
-  // Measured 0.580 deg applied (53.8 ms), 0.640 deg without (0.076 deg
-  // with the IMU on time): the scene's bias above keeps most of the error.
-  // (Before the video tracked the gyro bias: 0.439 / 0.693 / 0.137 deg. The
-  // bias found from frames read at a changing offset costs the applied run
-  // 0.14 deg; the other two gained.)
-  EXPECT_NEAR(applied.time_offset, fits[40].offset, 0.002);
+  std::printf("IMU 40 ms late: orientation median %.3f deg with the offset applied (%.1f ms from %s; the bias fit's "
+              "lateness then %.1f ms), %.3f deg without\n",
+              median(applied.rot), 1000 * applied.time_offset, AnchorManager::offsetSourceName(applied.offset_source),
+              applied.video_bias ? 1000 * applied.video_bias->lateness : NAN, median(ignored.rot));
+  EXPECT_EQ(applied.offset_source, AnchorManager::OffsetSource::kBiasFit);
+  EXPECT_NEAR(applied.time_offset, 0.040, 0.002);
   EXPECT_LT(median(applied.rot), median(ignored.rot));
+  // On time, applied: the correlation's +13.7 ms first, then the bias fit's.
+  WalkFigures on_time, on_time_applied;
+  setup.imu_late = 0;
+  runWalk(&on_time_applied, OutOfView::kVisual, std::nullopt, std::nullopt, setup);
+  setup.anchors.estimate_imu_time_offset = false;
+  runWalk(&on_time, OutOfView::kVisual, std::nullopt, std::nullopt, setup);
+  std::printf("IMU on time: orientation median %.3f deg with the offset applied (%.1f ms from %s), %.3f deg without\n",
+              median(on_time_applied.rot), 1000 * on_time_applied.time_offset,
+              AnchorManager::offsetSourceName(on_time_applied.offset_source), median(on_time.rot));
 }
 
 // A rotation the video showed is the rig's: after a bag loop (frames and IMU

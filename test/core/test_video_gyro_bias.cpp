@@ -77,6 +77,51 @@ TEST(VideoGyroBias, ARoughRotationIsRefinedWithTheBias) {
   EXPECT_LT((refined->bias - bias).norm() * kDeg, 0.01);
 }
 
+// The hand's turn rate of feed() (IMU frame, rad/s) at time s.
+Eigen::Vector3d handRate(double s) {
+  return Eigen::Vector3d(0.3 * std::sin(2.1 * s), 0.2 * std::cos(1.3 * s + 0.5), 0.25 * std::sin(0.9 * s + 1.0));
+}
+
+// The gyro is read `offset` s after the frames while the IMU's stamps are
+// `truth` s after them: its turn over a frame is the hand's of offset -
+// truth later. The offset in use moves from 0 to 40 ms halfway through
+// 30 s (the time-offset fit applied), with the true one 30 ms: the frames
+// read before the move are kept, their lateness against the newest offset
+// taken out, and the lateness fitted is the newest offset's (+10 ms).
+TEST(VideoGyroBias, FramesReadAtAnOlderOffsetAreKept) {
+  const Eigen::Vector3d bias(0.005, -0.006, 0.0035);
+  const double truth = 0.030;
+  std::mt19937 rng(5);
+  std::normal_distribution<double> n(0, 1);
+  VideoGyroBias vb(30.0), unlabelled(30.0);
+  for (int f = 0; f < 900; ++f) {
+    const double t0 = f * kDt, offset = f < 450 ? 0.0 : 0.040;
+    Eigen::Vector3d gyro = bias * kDt, cam = Eigen::Vector3d::Zero();
+    for (int k = 0; k < 20; ++k) {  // the turns over the frame, in 20 steps
+      const double s = t0 + (k + 0.5) * kDt / 20;
+      gyro += handRate(s + offset - truth) * kDt / 20;
+      cam += handRate(s) * kDt / 20;
+    }
+    cam += 5e-5 * Eigen::Vector3d(n(rng), n(rng), n(rng));
+    vb.add(1000 + t0 + kDt, kDt, gyro, cam, offset);
+    unlabelled.add(1000 + t0 + kDt, kDt, gyro, cam);
+  }
+  const auto e = vb.estimate(Eigen::Matrix3d::Identity());
+  const auto u = unlabelled.estimate(Eigen::Matrix3d::Identity());
+  ASSERT_TRUE(e);
+  ASSERT_TRUE(u);
+  std::printf("offset moved 0 -> 40 ms (true 30 ms): bias off by %.4f deg/s (sigma %.4f), lateness %.1f +- %.1f ms; "
+              "with the frames' offsets unknown %.4f deg/s, lateness %.1f ms\n",
+              (e->bias - bias).norm() * kDeg, e->sigma.norm() * kDeg, 1e3 * e->lateness, 1e3 * e->lateness_sigma,
+              (u->bias - bias).norm() * kDeg, 1e3 * u->lateness);
+  EXPECT_LE((e->bias - bias).cwiseAbs().maxCoeff(), 4 * e->sigma.maxCoeff());
+  // 2 ms: the rate's change is read from the camera's noisy rates (a
+  // frame's 5e-5 rad is 1.5 mrad/s over 33 ms), and a frame's turn is its
+  // mean rate, not the rate at its middle.
+  EXPECT_NEAR(e->lateness, 0.010, 0.002);
+  EXPECT_LE(e->lateness_sigma, 0.002);
+}
+
 TEST(VideoGyroBias, BadInputIsIgnoredAndOldFramesGo) {
   VideoGyroBias vb(2.0);  // 60 frames at 30 frames/s
   const Eigen::Vector3d z = Eigen::Vector3d::Zero();

@@ -98,6 +98,7 @@ class TrackingSession {
   // The camera-IMU time offset in use and the video's last fit of it.
   double timeOffset() const { return anchors_->timeOffset(); }
   const std::optional<TimeOffsetFit>& timeOffsetFit() const { return anchors_->timeOffsetFit(); }
+  AnchorManager::OffsetSource timeOffsetSource() const { return anchors_->timeOffsetSource(); }
   // The gyro bias in use, its source, and the video's estimate (AnchorManager).
   const Eigen::Vector3d& gyroBias() const { return anchors_->gyroBias(); }
   ImuOrientation::BiasSource gyroBiasSource() const { return anchors_->gyroBiasSource(); }

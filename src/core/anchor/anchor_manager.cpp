@@ -42,6 +42,15 @@ const char* anchorStatusName(AnchorStatus s) {
   return "lost";
 }
 
+const char* AnchorManager::offsetSourceName(OffsetSource s) {
+  switch (s) {
+    case OffsetSource::kCorrelation: return "correlation";
+    case OffsetSource::kBiasFit: return "bias_fit";
+    case OffsetSource::kParameter: break;
+  }
+  return "parameter";
+}
+
 const char* AnchorManager::rotationSourceName(RotationSource s) {
   switch (s) {
     case RotationSource::kOptions: return "options";
@@ -244,10 +253,13 @@ void AnchorManager::fitTimeOffset() {
   });
   if (fit.turns > 0) time_offset_fit_ = fit;
   // Applied from now on (the frames before keep what they had, live and
-  // offline alike); a change under a millisecond is noise.
-  if (options_.estimate_imu_time_offset && fit.found && std::abs(fit.offset - imu_.timeOffset()) >= 0.001) {
-    imu_.setTimeOffset(fit.offset);
-    clearVideoBias();  // its gyro turns were read at the old offset
+  // offline alike); a change under a millisecond is noise. Once the bias
+  // fit refined the offset, only a move beyond the bias fit's reach.
+  const double change = std::abs(fit.offset - imu_.timeOffset());
+  const double least = offset_source_ == OffsetSource::kBiasFit ? kOffsetCorrelationReach : kOffsetMinChange;
+  if (options_.estimate_imu_time_offset && fit.found && change >= least) {
+    imu_.setTimeOffset(fit.offset);  // the bias's frames keep the offset they were read at
+    offset_source_ = OffsetSource::kCorrelation;
   }
 }
 
@@ -295,7 +307,7 @@ void AnchorManager::addBiasTurn(const Turn& t, const Eigen::Matrix3d& R_imu0_imu
   const Eigen::Vector3d theta_cam = rms_plane <= t.rms_px ? rotationVector(R_plane.transpose()) : t.theta_cam;
   const double dt = t.t1 - t.t0;
   // The gyro's turn with the bias in use put back (the window was integrated with it).
-  video_bias_.add(t.t1, dt, rotationVector(R_imu0_imu1) + imu_.gyroBias() * dt, theta_cam);
+  video_bias_.add(t.t1, dt, rotationVector(R_imu0_imu1) + imu_.gyroBias() * dt, theta_cam, imu_.timeOffset());
 }
 
 void AnchorManager::fitVideoBias(double t1) {
@@ -303,10 +315,17 @@ void AnchorManager::fitVideoBias(double t1) {
   if (!q) return;
   video_bias_estimate_ = video_bias_.estimate(q->toRotationMatrix().transpose(),
                                               rotation_source_ == RotationSource::kVideo);
-  if (!video_bias_estimate_ || !(video_bias_estimate_->sigma.maxCoeff() <= kVideoBiasMaxSigma)) return;
-  const double at = t1 + imu_.timeOffset();
-  const double from = std::max(bias_applied_at_, at - kVideoBiasReach * imu_.options().window_seconds);
-  if (imu_.setVideoGyroBias(video_bias_estimate_->bias, from, at)) bias_applied_at_ = at;
+  if (!video_bias_estimate_) return;
+  const VideoGyroBias::Estimate& e = *video_bias_estimate_;
+  if (e.sigma.maxCoeff() <= kVideoBiasMaxSigma) {
+    const double at = t1 + imu_.timeOffset();
+    const double from = std::max(bias_applied_at_, at - kVideoBiasReach * imu_.options().window_seconds);
+    if (imu_.setVideoGyroBias(e.bias, from, at)) bias_applied_at_ = at;
+  }
+  // Its lateness: the newest frame's offset less the true one.
+  if (options_.estimate_imu_time_offset && e.lateness_sigma <= kOffsetMaxLatenessSigma &&
+      std::abs(e.lateness) >= kOffsetMinChange && imu_.setTimeOffset(video_bias_.newestOffset() - e.lateness))
+    offset_source_ = OffsetSource::kBiasFit;
 }
 
 void AnchorManager::clearVideoBias() {

@@ -8,29 +8,46 @@
 
 namespace imt {
 
-void VideoGyroBias::add(double t1, double dt, const Eigen::Vector3d& gyro_turn, const Eigen::Vector3d& camera_turn) {
-  if (!std::isfinite(t1) || !(dt > 0 && dt <= 1) || !gyro_turn.allFinite() || !camera_turn.allFinite()) return;
+void VideoGyroBias::add(double t1, double dt, const Eigen::Vector3d& gyro_turn, const Eigen::Vector3d& camera_turn,
+                        double offset) {
+  if (!std::isfinite(t1) || !(dt > 0 && dt <= 1) || !gyro_turn.allFinite() || !camera_turn.allFinite() ||
+      !std::isfinite(offset))
+    return;
   if (!frames_.empty() && t1 < frames_.back().t1) return;
-  frames_.push_back({t1, dt, gyro_turn, camera_turn});
+  frames_.push_back({t1, dt, offset, gyro_turn, camera_turn});
   while (frames_.front().t1 < t1 - seconds_) frames_.pop_front();
 }
 
 std::optional<VideoGyroBias::Estimate> VideoGyroBias::estimate(const Eigen::Matrix3d& R_imu_cam,
                                                                 bool refine_rotation) const {
   if (static_cast<int>(frames_.size()) < kMinFrames || !R_imu_cam.allFinite()) return std::nullopt;
-  // Each frame's reading of the bias, rad/s, and its turn rate in the IMU's axes.
-  std::vector<Eigen::Vector3d> reading(frames_.size()), rate(frames_.size());
-  for (size_t i = 0; i < frames_.size(); ++i) {
-    rate[i] = R_imu_cam * frames_[i].camera / frames_[i].dt;
-    reading[i] = frames_[i].gyro / frames_[i].dt - rate[i];
+  // Each frame's turn rate in the IMU's axes, and its change per second
+  // (from its neighbours, when they are there; zero otherwise): a gyro read
+  // s too late reads the turn of s later, rate + s * rate', which a walk's
+  // changing turns make a bias of its own over a few seconds (0.1 deg/s for
+  // 40 ms on a rendered walk) unless it is fitted with the bias.
+  const size_t n_frames = frames_.size();
+  std::vector<Eigen::Vector3d> rate(n_frames), accel(n_frames, Eigen::Vector3d::Zero()), reading(n_frames);
+  for (size_t i = 0; i < n_frames; ++i) rate[i] = R_imu_cam * frames_[i].camera / frames_[i].dt;
+  for (size_t i = 1; i + 1 < n_frames; ++i) {
+    const double before = frames_[i].t1 - frames_[i - 1].t1, after = frames_[i + 1].t1 - frames_[i].t1;
+    const bool next = std::abs(before - frames_[i].dt) < 0.1 * frames_[i].dt &&
+                      std::abs(after - frames_[i + 1].dt) < 0.1 * frames_[i + 1].dt;
+    if (next) accel[i] = (rate[i + 1] - rate[i - 1]) / (before + after);
   }
+  // Each frame's reading of the bias, rad/s: the gyro's turn rate less the
+  // camera's, and less what reading it at another offset than the newest
+  // frame's put in (that offset's lateness is the one fitted).
+  const double newest_offset = frames_.back().offset;
+  for (size_t i = 0; i < n_frames; ++i)
+    reading[i] = frames_[i].gyro / frames_[i].dt - rate[i] - (frames_[i].offset - newest_offset) * accel[i];
   // Per axis: the median and the median absolute deviation (x 1.4826: a
   // standard deviation for Gaussian noise); frames over 4 of them from the
   // median on any axis are left out.
   Eigen::Vector3d median, spread;
-  std::vector<double> v(frames_.size());
+  std::vector<double> v(n_frames);
   for (int a = 0; a < 3; ++a) {
-    for (size_t i = 0; i < frames_.size(); ++i) v[i] = reading[i](a);
+    for (size_t i = 0; i < n_frames; ++i) v[i] = reading[i](a);
     auto mid = v.begin() + v.size() / 2;
     std::nth_element(v.begin(), mid, v.end());
     median(a) = *mid;
@@ -39,21 +56,9 @@ std::optional<VideoGyroBias::Estimate> VideoGyroBias::estimate(const Eigen::Matr
     spread(a) = std::max(1.4826 * *mid, 1e-9);
   }
   std::vector<size_t> kept;
-  for (size_t i = 0; i < frames_.size(); ++i)
+  for (size_t i = 0; i < n_frames; ++i)
     if (!((reading[i] - median).array().abs() > 4 * spread.array()).any()) kept.push_back(i);
   if (static_cast<int>(kept.size()) < kMinFrames / 2) return std::nullopt;
-  // The turn rate's change per second at each frame (from its neighbours,
-  // when they are there; zero otherwise): a gyro stamped late by s reads the
-  // turn of s later, rate + s * rate', which a walk's changing turns make a
-  // bias of its own over a few seconds (0.1 deg/s for 40 ms on a rendered
-  // walk) unless it is fitted with the bias.
-  std::vector<Eigen::Vector3d> accel(frames_.size(), Eigen::Vector3d::Zero());
-  for (size_t i = 1; i + 1 < frames_.size(); ++i) {
-    const double before = frames_[i].t1 - frames_[i - 1].t1, after = frames_[i + 1].t1 - frames_[i].t1;
-    const bool next = std::abs(before - frames_[i].dt) < 0.1 * frames_[i].dt &&
-                      std::abs(after - frames_[i + 1].dt) < 0.1 * frames_[i + 1].dt;
-    if (next) accel[i] = (rate[i + 1] - rate[i - 1]) / (before + after);
-  }
   // Weighted least squares (weights dt^2: the video's noise is per frame)
   // for the bias b, the IMU's lateness s and, with refine_rotation, a small
   // rotation d of the camera's axes:
@@ -99,6 +104,7 @@ std::optional<VideoGyroBias::Estimate> VideoGyroBias::estimate(const Eigen::Matr
   e.bias = x.head<3>();
   e.sigma = cov.diagonal().head<3>().cwiseMax(0.0).cwiseSqrt();
   e.lateness = x(3);
+  e.lateness_sigma = std::sqrt(std::max(0.0, cov(3, 3)));
   e.frames = static_cast<int>(kept.size());
   return e;
 }

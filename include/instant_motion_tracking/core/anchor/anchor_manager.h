@@ -137,6 +137,22 @@ class AnchorManager {
   // the last fit from the video (none before one had turns to work with).
   double timeOffset() const { return imu_.timeOffset(); }
   const std::optional<TimeOffsetFit>& timeOffsetFit() const { return time_offset_fit_; }
+  // Where the offset in use came from: the parameter (anchors.imu_time_offset),
+  // the turn rates' correlation (TimeOffsetFit), or the gyro bias's fit (its
+  // lateness, VideoGyroBias::Estimate, taken off the offset it was read at).
+  // The correlation finds any offset within its reach but carries a scene's
+  // bias (the floor's flow: +13.6 ms on the rendered walk); the bias fit is
+  // sharp (under 1 ms there) but linear, good for the last tens of ms. So the
+  // bias fit refines what the correlation found, and the correlation takes
+  // over again only when it moves by more than kOffsetCorrelationReach.
+  enum class OffsetSource { kParameter, kCorrelation, kBiasFit };
+  OffsetSource timeOffsetSource() const { return offset_source_; }
+  static const char* offsetSourceName(OffsetSource s);  // "parameter", "correlation", "bias_fit"
+  // The bias fit's lateness is applied when its standard error is under
+  // this (s) and it is over kOffsetMinChange.
+  static constexpr double kOffsetMaxLatenessSigma = 0.002;
+  static constexpr double kOffsetMinChange = 0.001;
+  static constexpr double kOffsetCorrelationReach = 0.05;
   // The gyro bias in use (rad/s, IMU frame) and its source; the video's
   // estimate of it while the camera moves (imu.video_bias; none before it
   // has VideoGyroBias::kMinFrames frames), also when a still stretch gave
@@ -246,6 +262,7 @@ class AnchorManager {
   size_t next_offset_fit_ = TimeOffsetEstimator::Options().min_turns;
   static constexpr size_t kOffsetRefitTurns = 60;
   std::optional<TimeOffsetFit> time_offset_fit_;
+  OffsetSource offset_source_ = OffsetSource::kParameter;
   // The gyro bias from the video (imu.video_bias).
   void addBiasTurn(const Turn& t, const Eigen::Matrix3d& R_imu0_imu1);
   void fitVideoBias(double t1);

@@ -547,6 +547,44 @@ TEST(AnchorManager, FloorWalkSlowTurnsWithAGyroBias) {
   EXPECT_GE(median(last_without), 10.0);
 }
 
+// The slow walk with the IMU-to-camera rotation hidden (no tf), 30 s, the
+// gyro biased by 0.49 deg/s: its turns are under the rotation estimator's
+// 0.2 deg per frame on most frames, and the bias is a tenth of them. Before
+// (2026-11-24) the rotation was never found: the anchors stayed calibrating.
+// Now slow frames are composed until they turn 0.2 deg together.
+TEST(AnchorManager, FloorWalkSlowTurnsFindTheImuRotation) {
+  const Eigen::Quaterniond hidden(Eigen::AngleAxisd(128 * M_PI / 180, Eigen::Vector3d(1, -2, 0.5).normalized()));
+  WalkSetup setup;
+  setup.adjust = [&](SceneOptions* o) {
+    o->trajectory_amplitude = 0.2;
+    o->duration = 30.0;
+    o->gyro_bias = Eigen::Vector3d(0.005, -0.006, 0.0035);
+  };
+  WalkFigures f;
+  runWalk(&f, OutOfView::kVisual, hidden, std::nullopt, setup);
+  std::vector<double> last;
+  for (const auto& [t, e] : f.rot_at)
+    if (t > 28) last.push_back(e);
+  ASSERT_FALSE(last.empty());
+  std::printf("slow walk, rotation hidden: calibrating for %d states, found %.2f s in, %.3f deg off at the end; "
+              "orientation median %.3f deg, over the last 2 s %.3f deg; bias from %s\n",
+              f.calibrating, f.found_at, f.rotation_error, median(f.rot), median(last),
+              ImuOrientation::biasSourceName(f.bias_source));
+  // Measured: found 2.83 s in, 0.46 deg off at the end. Issue 14: within a
+  // few deg; 1 deg as for the ordinary walk.
+  ASSERT_GE(f.found_at, 0) << "never found";
+  EXPECT_LE(f.found_at, 5.0);
+  EXPECT_FALSE(f.tracked_while_calibrating);
+  EXPECT_LE(f.rotation_error, 1.0);
+  // Not yet: the bias tracked as with the rotation given. The video's
+  // rotation moves by over 0.2 deg now and then as pairs come in, each move
+  // drops the bias's frames (their floor normal came from the old one), and
+  // the orientation drifts with the bias (measured 7.8 deg median over the
+  // 30 s). Fitting the rotation about the pairs' means (the bias's constant
+  // turn taken out) found it within 0.33 deg here but 15.6 deg from the
+  // phone clip's axes (11.7 deg without): not kept.
+}
+
 // Issue 14: IMU stamps late by -30, 0 and +40 ms against the frames' (the
 // rendered IMU is exact otherwise). The offset is estimated from the video
 // on every walk; anchors.estimate_imu_time_offset applies it.

@@ -199,6 +199,7 @@ ImuInput AnchorManager::addImu(const ImuSample& s, std::string* why) {
 void AnchorManager::resetImu() {
   imu_.reset();
   turns_.clear();
+  slow_turn_ = SlowTurn();
   clearVideoBias();
   bias_applied_at_ = -std::numeric_limits<double>::infinity();
   clearTimeOffsetTurns();
@@ -209,6 +210,7 @@ void AnchorManager::update() {
   if (!regions_->lastReset().empty()) {
     anchors_.clear();  // the region manager dropped their regions
     turns_.clear();
+    slow_turn_ = SlowTurn();
     clearVideoBias();  // the new stream's stamps start before the old one's
     bias_applied_at_ = -std::numeric_limits<double>::infinity();
     clearTimeOffsetTurns();
@@ -273,7 +275,7 @@ void AnchorManager::readTurns() {
     if (imu_.acrossGap(t.t0, t.t1) ||  // before the IMU began, or a gap
         !imu_.turnAtImuStamps(t.t0 + imu_.timeOffset(), t.t1 + imu_.timeOffset(), &turn))
       continue;
-    video_rotation_.add(t.theta_cam, rotationVector(turn));
+    addRotationTurn(t, turn);
     addBiasTurn(t, turn);
     if (++bias_turns_since_fit_ >= kVideoBiasRefitTurns) {
       bias_turns_since_fit_ = 0;
@@ -288,6 +290,29 @@ void AnchorManager::readTurns() {
   }
   // Bounded: turns the gyro never covers (an IMU that stopped) are dropped.
   while (turns_.size() > kMaxWaitingTurns) turns_.pop_front();
+}
+
+void AnchorManager::addRotationTurn(const Turn& t, const Eigen::Matrix3d& R_imu0_imu1) {
+  const double min_angle = video_rotation_.options().min_angle;
+  const Eigen::Vector3d theta_imu = rotationVector(R_imu0_imu1);
+  if (t.theta_cam.norm() >= min_angle && theta_imu.norm() >= min_angle) {
+    video_rotation_.add(t.theta_cam, theta_imu);
+    slow_turn_ = SlowTurn();
+    return;
+  }
+  // A slow turn: composed with the slow ones just before it.
+  if (slow_turn_.frames > 0 && (t.t0 != slow_turn_.t1 || slow_turn_.frames >= kMaxSlowTurns)) slow_turn_ = SlowTurn();
+  if (slow_turn_.frames == 0) slow_turn_.t0 = t.t0;
+  slow_turn_.R_cam = slow_turn_.R_cam * quaternionExp(t.theta_cam).toRotationMatrix();
+  slow_turn_.t1 = t.t1;
+  ++slow_turn_.frames;
+  const Eigen::Vector3d theta_cam = rotationVector(slow_turn_.R_cam);
+  if (theta_cam.norm() < min_angle) return;
+  Eigen::Matrix3d turn;
+  const double o = imu_.timeOffset();
+  if (!imu_.acrossGap(slow_turn_.t0, slow_turn_.t1) && imu_.turnAtImuStamps(slow_turn_.t0 + o, slow_turn_.t1 + o, &turn))
+    video_rotation_.add(theta_cam, rotationVector(turn));
+  slow_turn_ = SlowTurn();
 }
 
 void AnchorManager::addBiasTurn(const Turn& t, const Eigen::Matrix3d& R_imu0_imu1) {

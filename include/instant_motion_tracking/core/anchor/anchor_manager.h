@@ -254,6 +254,18 @@ class AnchorManager {
   };
   std::deque<Turn> turns_;
   static constexpr size_t kMaxWaitingTurns = 300;
+  // Consecutive turns each under the rotation estimator's min_angle (a
+  // slow pan: under 6 deg/s at 30 frames/s), composed until together they
+  // reach it, over at most kMaxSlowTurns frames: a slow turn still shows
+  // the IMU-to-camera rotation, over several frames.
+  struct SlowTurn {
+    double t0 = 0, t1 = 0;
+    Eigen::Matrix3d R_cam = Eigen::Matrix3d::Identity();  // the camera at t1 in the camera at t0
+    int frames = 0;
+  };
+  SlowTurn slow_turn_;
+  static constexpr int kMaxSlowTurns = 15;
+  void addRotationTurn(const Turn& t, const Eigen::Matrix3d& R_imu0_imu1);
   // The camera-IMU time offset (anchors.estimate_imu_time_offset): the
   // video's turn angles, refitted every kOffsetRefitTurns of them.
   void fitTimeOffset();

@@ -85,6 +85,7 @@ class CamImuRotationEstimator {
 
   CamImuRotationEstimator() = default;
   explicit CamImuRotationEstimator(const Options& o) : options_(o) {}
+  const Options& options() const { return options_; }
 
   // One frame interval's rotation vectors (rad): the camera's and the
   // gyro's. Ignored when non-finite or a turn under min_angle.

@@ -16,7 +16,7 @@ IMT_PACKAGES=(
   libimage-transport-dev libcv-bridge-dev libtf2-ros-dev libmessage-filters-dev libtf2-geometry-msgs-dev libtf2-eigen-dev
   libceres-dev libopencv-dev libopencv-contrib-dev libeigen3-dev
   libyaml-cpp-dev nlohmann-json3-dev libgtest-dev libbenchmark-dev
-  libdiagnostic-updater-dev python3-tf2-msgs python3-opencv
+  libdiagnostic-updater-dev python3-tf2-msgs python3-opencv python3-rosbag python3-yaml
 )
 
 imt_log() { printf '[imt] %s\n' "$*" >&2; }

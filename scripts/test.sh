@@ -4,7 +4,9 @@
 # "N passed, N failed, N skipped" and exits non-zero on any failure.
 # Extra arguments go to ctest (e.g. -R rostest, --output-on-failure is always on);
 # without them, the quick core/io tests under ASan and UBSan run next
-# (scripts/sanitize.sh; IMT_SANITIZE_TESTS=0 to skip) and a 3-minute soak of
+# (scripts/sanitize.sh; IMT_SANITIZE_TESTS=0 to skip), then track_bag under
+# them on 500 mutated bags and INIT files (scripts/fuzz.sh; IMT_FUZZ_CASES=N
+# to change, 0 to skip), and a 3-minute soak of
 # the live graph under load last (scripts/soak.sh; IMT_SOAK_MINUTES=N to
 # change, 0 to skip).
 set -euo pipefail
@@ -18,23 +20,42 @@ rm -rf "$results"
 status=0
 (cd "$IMT_BUILD_DIR" && ctest --output-on-failure -j"$(nproc)" "$@") || status=$?
 
+# One more test case in the JUnit results: junit_case SUITE NAME STATUS MESSAGE
+# (STATUS 0 passes; else MESSAGE is the failure's).
+junit_case() {
+  mkdir -p "$results/$1"
+  /usr/bin/python3 - "$results/$1/$1.xml" "$@" <<'PY'
+import sys
+from xml.sax.saxutils import escape, quoteattr
+path, suite, name, status, message = sys.argv[1:6]
+failure = "" if status == "0" else "<failure message=%s/>" % quoteattr(message)
+with open(path, "w") as f:
+    f.write('<testsuite name="%s" tests="1"><testcase classname="%s" name="%s">%s</testcase></testsuite>\n'
+            % (escape(suite), escape(suite), escape(name), failure))
+PY
+}
+
 # The core and io tests under AddressSanitizer and UBSan (scripts/sanitize.sh,
-# the quick ones; a build of its own in _build_sanitize/), one more test case.
-# IMT_SANITIZE_TESTS=0 skips it (as do extra ctest arguments).
+# the quick ones; a build of its own in _build_sanitize/), then track_bag in
+# that build on mutated bags and INIT files (scripts/fuzz.sh), a test case
+# each. IMT_SANITIZE_TESTS=0 skips both, IMT_FUZZ_CASES=0 the second (as do
+# extra ctest arguments).
 if [ $# -eq 0 ] && [ "${IMT_SANITIZE_TESTS:-1}" != 0 ]; then
-  mkdir -p "$results/sanitize"
   sanitize_status=0
   "$IMT_ROOT/scripts/sanitize.sh" >"$IMT_BUILD_DIR/sanitize.log" 2>&1 || sanitize_status=$?
   cat "$IMT_BUILD_DIR/sanitize.log"
-  /usr/bin/python3 - "$results/sanitize/sanitize.xml" "$sanitize_status" <<'PY'
-import sys
-path, status = sys.argv[1], int(sys.argv[2])
-failure = "" if status == 0 else '<failure message="scripts/sanitize.sh failed (exit %d); see sanitize.log"/>' % status
-with open(path, "w") as f:
-    f.write('<testsuite name="sanitize" tests="1"><testcase classname="sanitize" name="CoreAndIoTestsUnderAsanAndUbsan">%s'
-            '</testcase></testsuite>\n' % failure)
-PY
+  junit_case sanitize CoreAndIoTestsUnderAsanAndUbsan "$sanitize_status" \
+    "scripts/sanitize.sh failed (exit $sanitize_status); see sanitize.log"
   [ "$sanitize_status" -eq 0 ] || status=1
+  fuzz_cases=${IMT_FUZZ_CASES:-500}
+  if [ "$fuzz_cases" -gt 0 ]; then
+    fuzz_status=0
+    "$IMT_ROOT/scripts/fuzz.sh" "$fuzz_cases" >"$IMT_BUILD_DIR/fuzz.log" 2>&1 || fuzz_status=$?
+    cat "$IMT_BUILD_DIR/fuzz.log"
+    junit_case fuzz "TrackBagOn${fuzz_cases}MutatedBagsAndInitFiles" "$fuzz_status" \
+      "scripts/fuzz.sh $fuzz_cases failed (exit $fuzz_status); see fuzz.log"
+    [ "$fuzz_status" -eq 0 ] || status=1
+  fi
 fi
 
 # The live graph under load for 3 minutes (scripts/soak.sh), after the other
@@ -42,20 +63,12 @@ fi
 # IMT_SOAK_MINUTES=0 skips it (as do extra ctest arguments: a partial run).
 soak_minutes=${IMT_SOAK_MINUTES:-3}
 if [ $# -eq 0 ] && [ "$soak_minutes" -gt 0 ]; then
-  mkdir -p "$results/soak"
   soak_status=0
   "$IMT_ROOT/scripts/soak.sh" "$soak_minutes" --no-build --out "$IMT_BUILD_DIR/soak" \
     >"$IMT_BUILD_DIR/soak.log" 2>&1 || soak_status=$?
   cat "$IMT_BUILD_DIR/soak.log"
-  /usr/bin/python3 - "$results/soak/soak.xml" "$soak_status" "$soak_minutes" <<'PY'
-import sys
-from xml.sax.saxutils import escape
-path, status, minutes = sys.argv[1], int(sys.argv[2]), sys.argv[3]
-failure = "" if status == 0 else '<failure message="scripts/soak.sh %s failed (exit %d); see soak.log"/>' % (minutes, status)
-with open(path, "w") as f:
-    f.write('<testsuite name="soak" tests="1"><testcase classname="soak" name="LiveGraphUnderLoad%sMinutes">%s'
-            '</testcase></testsuite>\n' % (escape(minutes), failure))
-PY
+  junit_case soak "LiveGraphUnderLoad${soak_minutes}Minutes" "$soak_status" \
+    "scripts/soak.sh $soak_minutes failed (exit $soak_status); see soak.log"
   [ "$soak_status" -eq 0 ] || status=1
 fi
 

@@ -43,8 +43,9 @@ struct AnchorOptions {
       "shutter's middle row); the start value when estimated");
     v("estimate_imu_time_offset", estimate_imu_time_offset,
       "use the offset the video shows (always estimated and reported, within +-0.1 s: the changes of the "
-      "camera's turn rate aligned with the gyro's over the last 20 s of frames, refitted every 2 s); off by "
-      "default: a camera moving over a near plane biases it (+14 ms on the rendered floor walk)");
+      "camera's turn rate aligned with the gyro's over the last 20 s of frames, refitted every 2 s; then "
+      "refined by the gyro bias's fit, imu.video_bias, once it has one); off by default: without the bias "
+      "fit a camera moving over a near plane biases it (+14 ms on the rendered floor walk)");
   }
   // Empty when usable, else "anchors.<field>: must be ... (got ...)".
   std::string validate() const;

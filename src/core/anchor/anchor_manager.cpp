@@ -110,7 +110,7 @@ AnchorManager::AnchorManager(const AnchorOptions& options, const ImuOptions& imu
   regions_->setCameraFallback([this](double t_prev, double t, Eigen::Matrix3d* H) {
     const Eigen::Quaterniond* q = rotationAt(t);
     Eigen::Matrix3d turn;  // the IMU at t in the IMU at t_prev
-    if (!q || !imu_.turnAtImuStamps(t_prev + imu_.timeOffset(), t + imu_.timeOffset(), &turn)) return false;
+    if (!q || !fallbackTurn(t_prev + imu_.timeOffset(), t + imu_.timeOffset(), &turn)) return false;
     const Eigen::Matrix3d R_ci = q->toRotationMatrix();
     // x_t ~ K R_cam(t)_cam(t_prev) K^-1 x_prev.
     const Eigen::Matrix3d R = R_ci * turn.transpose() * R_ci.transpose();
@@ -123,6 +123,22 @@ AnchorManager::AnchorManager(const AnchorOptions& options, const ImuOptions& imu
 }
 
 AnchorManager::~AnchorManager() { regions_->setCameraFallback(nullptr); }
+
+bool AnchorManager::fallbackTurn(double s0, double s1, Eigen::Matrix3d* turn) const {
+  if (imu_.turnAtImuStamps(s0, s1, turn)) return true;
+  // The frame is stepped when it comes, and its IMU stamps (plus the time
+  // offset) may lie ahead of the newest sample: the turn up to it, then its
+  // last kFallbackRateSeconds' rate held over what is missing.
+  const double newest = imu_.newestStamp();
+  const double d = std::min(kFallbackRateSeconds, newest - imu_.oldestStamp());
+  Eigen::Matrix3d known = Eigen::Matrix3d::Identity(), last;
+  if (imu_.empty() || !(s1 > newest && s1 - newest <= kFallbackLeadSeconds) || !(s0 < s1) || !(d > 0) ||
+      !imu_.turnAtImuStamps(newest - d, newest, &last))
+    return false;
+  if (s0 < newest && !imu_.turnAtImuStamps(s0, newest, &known)) return false;
+  *turn = known * quaternionExp(rotationVector(last) * ((s1 - std::max(s0, newest)) / d)).toRotationMatrix();
+  return true;
+}
 
 CameraModel AnchorManager::intrinsics() const {
   const cv::Size size = regions_->cache().imageSize();

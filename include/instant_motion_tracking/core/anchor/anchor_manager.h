@@ -239,6 +239,11 @@ class AnchorManager {
   // The video's turns waiting for the gyro to cover them, and the estimate
   // fed with those it does.
   void readTurns();
+  // The IMU's turn between IMU stamps s0 and s1 for the camera fallback;
+  // up to kFallbackLeadSeconds past the newest sample, extrapolated.
+  bool fallbackTurn(double s0, double s1, Eigen::Matrix3d* turn) const;
+  static constexpr double kFallbackLeadSeconds = 0.1;  // the time offset's reach
+  static constexpr double kFallbackRateSeconds = 0.02;
 
   AnchorOptions options_;
   double default_hfov_deg_;

@@ -59,7 +59,10 @@ void MotionAnalysisNodelet::imageCb(const std_msgs::Header& header, const cv::Ma
       health_.noteDropped(s.lastDrop());
       return;
     }
-    if (!s.lastGap().empty()) NODELET_WARN_THROTTLE(5.0, "%s", s.lastGap().c_str());
+    if (!s.lastGap().empty()) {
+      NODELET_WARN_THROTTLE(5.0, "%s", s.lastGap().c_str());
+      health_.noteGap(s.lastGap());
+    }
     if (!s.lastAnalysisReset().empty() && health_.noteReset(s.lastAnalysisReset()))
       NODELET_WARN("motion analysis reset at stamp %.6f: %s", header.stamp.toSec(), s.lastAnalysisReset().c_str());
     if (motion_pub_.getNumSubscribers() > 0) motion_pub_.publish(toMsg(md, header));

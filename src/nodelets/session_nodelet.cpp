@@ -156,7 +156,10 @@ void SessionNodelet::feed(const instant_motion_tracking::MotionDataConstPtr& msg
     dropped = s.lastDrop();
     gap = s.lastGap();
   });
-  if (!gap.empty()) NODELET_WARN_THROTTLE(5.0, "%s", gap.c_str());
+  if (!gap.empty()) {
+    NODELET_WARN_THROTTLE(5.0, "%s", gap.c_str());
+    health_.noteGap(gap);
+  }
   if (!dropped.empty()) {
     // A repeated stamp, or one slightly behind: dropped, tracks kept.
     NODELET_WARN_THROTTLE(5.0, "%s", dropped.c_str());

@@ -63,6 +63,13 @@ bool NodeletHealth::noteReset(const std::string& reason) {
   return true;
 }
 
+void NodeletHealth::noteGap(const std::string& reason) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  ++gaps_;
+  ++window_.gaps;
+  window_.gap_reason = reason;
+}
+
 void NodeletHealth::setItems(const std::vector<std::string>& statuses) {
   std::lock_guard<std::mutex> lock(mutex_);
   items_.clear();
@@ -96,6 +103,8 @@ void NodeletHealth::inputStatus(diagnostic_updater::DiagnosticStatusWrapper& s) 
     s.summaryf(DiagnosticStatus::WARN, "reset: %s", w.reset_reason.c_str());
   } else if (w.dropped > 0) {
     s.summaryf(DiagnosticStatus::WARN, "dropped %d inputs: %s", w.dropped, w.drop_reason.c_str());
+  } else if (w.gaps > 0) {
+    s.summaryf(DiagnosticStatus::WARN, "gap: %s", w.gap_reason.c_str());
   } else if (w.frames == 0) {
     const double quiet = last_input_.isZero() ? -1 : (w.end - last_input_).toSec();
     if (quiet < 0)
@@ -111,6 +120,7 @@ void NodeletHealth::inputStatus(diagnostic_updater::DiagnosticStatusWrapper& s) 
   s.add("frames", frames_);
   s.add("dropped", dropped_);
   s.add("resets", resets_);
+  s.add("gaps", gaps_);
 }
 
 void NodeletHealth::processingStatus(diagnostic_updater::DiagnosticStatusWrapper& s) {

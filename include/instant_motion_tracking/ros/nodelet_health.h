@@ -7,8 +7,9 @@
 // - Diagnostics through diagnostic_updater on /diagnostics, every
 //   ~diagnostic_period s of wall time (so a paused or looping bag on sim time
 //   does not stop them), named "<nodelet name>: <task>":
-//     input        rate (Hz, wall), frames, dropped inputs, resets; WARN when
-//                  subscribed without input, or on a reset/drop in the period
+//     input        rate (Hz, wall), frames, dropped inputs, resets, gaps; WARN
+//                  when subscribed without input, or on a reset, drop or gap
+//                  in the period
 //     processing   callback time (ms, wall) and delay of the output after its
 //                  image stamp (ms, ROS time), mean and max over the period
 //     <items>      e.g. "regions": how many items are in each status, plus
@@ -52,6 +53,8 @@ class NodeletHealth {
   void noteDropped(const std::string& why);
   // Counts a reset; true when it should be logged now.
   bool noteReset(const std::string& reason);
+  // Counts a gap (frames missing for longer than the cache: tracks kept).
+  void noteGap(const std::string& reason);
   // The current items' statuses, one entry per item.
   void setItems(const std::vector<std::string>& statuses);
   // A key and value shown with the items (replacing the key's last value).
@@ -62,9 +65,9 @@ class NodeletHealth {
  private:
   struct Window {
     ros::WallTime begin, end;
-    int frames = 0, dropped = 0, resets = 0;
+    int frames = 0, dropped = 0, resets = 0, gaps = 0;
     double processing_sum = 0, processing_max = 0, delay_sum = 0, delay_max = 0;
-    std::string drop_reason, reset_reason;
+    std::string drop_reason, reset_reason, gap_reason;
   };
   void report();
   void inputStatus(diagnostic_updater::DiagnosticStatusWrapper& s);
@@ -80,7 +83,7 @@ class NodeletHealth {
   std::map<std::string, std::string> notes_;
   bool subscribed_ = false;
   Window window_, reported_;  // the period being filled, the one last reported
-  uint64_t frames_ = 0, dropped_ = 0, resets_ = 0;
+  uint64_t frames_ = 0, dropped_ = 0, resets_ = 0, gaps_ = 0;
   ros::WallTime last_input_, last_reset_log_;
 };
 

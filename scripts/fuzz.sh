@@ -23,9 +23,7 @@ while [ $# -gt 0 ]; do
   esac
 done
 
-IMT_BUILD_DIR=${IMT_SANITIZE_DIR:-$(cd "$(dirname "$0")/.." && pwd)/_build_sanitize}
-IMT_CMAKE_ARGS="-DIMT_SANITIZE=ON"
-source "$(dirname "$0")/setup.sh"
+IMT_SANITIZE=1 source "$(dirname "$0")/setup.sh"
 imt_install
 imt_env
 imt_build track_bag make_scene

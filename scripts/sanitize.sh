@@ -26,9 +26,7 @@ if [ -z "$filter" ]; then
   if $all; then filter="*"; else filter="-$slow"; fi
 fi
 
-IMT_BUILD_DIR=${IMT_SANITIZE_DIR:-$(cd "$(dirname "$0")/.." && pwd)/_build_sanitize}
-IMT_CMAKE_ARGS="-DIMT_SANITIZE=ON"
-source "$(dirname "$0")/setup.sh"
+IMT_SANITIZE=1 source "$(dirname "$0")/setup.sh"
 imt_install
 imt_env
 imt_build test_core test_io

@@ -29,8 +29,9 @@ imt_env
 imt_build track_bag make_scene
 
 bin="$IMT_BUILD_DIR/devel/lib/instant_motion_tracking"
-# A track_bag without the sanitizers would pass every case unseen.
-ldd "$bin/track_bag" | grep -q libasan || { imt_log "$bin/track_bag is not built with ASan"; exit 1; }
+# A track_bag without the sanitizers would pass every case unseen. (The
+# sanitizer build names its tools *_sanitized: see CMakeLists.txt.)
+ldd "$bin/track_bag_sanitized" | grep -q libasan || { imt_log "$bin/track_bag_sanitized is not built with ASan"; exit 1; }
 work="$IMT_BUILD_DIR/fuzz"
 rm -rf "$work"
 mkdir -p "$work/seeds" "$work/failed"
@@ -40,7 +41,7 @@ export ASAN_OPTIONS=detect_leaks=0:halt_on_error=1:exitcode=86
 export UBSAN_OPTIONS=halt_on_error=1:print_stacktrace=1:exitcode=86
 
 imt_log "making the seeds"
-scene() { "$bin/make_scene" --duration 1 --fps 10 --width 160 --height 120 --quiet "$@"; }
+scene() { "$bin/make_scene_sanitized" --duration 1 --fps 10 --width 160 --height 120 --quiet "$@"; }
 scene --preset floor_walk --out "$work/seeds/mono8.bag" --init "$work/seeds/mono8.yaml"
 scene --preset cards --encoding bgr8 --out "$work/seeds/bgr8.bag" --init "$work/seeds/bgr8.yaml"
 scene --preset poster_orbit --compressed jpeg --out "$work/seeds/jpeg.bag" --init "$work/seeds/jpeg.yaml"
@@ -53,7 +54,7 @@ imt_log "making $cases mutants (seed $seed)"
 # files are removed when it passed.
 run_case() {
   local base=$1 status=0
-  timeout -k 5 "$timeout_s" "$bin/track_bag" --bag "$base.bag" --init "$base.yaml" --out-dir "$base.out" \
+  timeout -k 5 "$timeout_s" "$bin/track_bag_sanitized" --bag "$base.bag" --init "$base.yaml" --out-dir "$base.out" \
     --config "$IMT_ROOT/config/default.yaml" --quiet >"$base.log" 2>&1 || status=$?
   local why=""
   if grep -qE "ERROR: AddressSanitizer|runtime error:|ERROR: LeakSanitizer" "$base.log"; then why="sanitizer report"

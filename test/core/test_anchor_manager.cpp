@@ -281,6 +281,14 @@ struct WalkFigures {
   TimeOffsetFit offset_fit;               // AnchorManager::timeOffsetFit() at the end
 };
 
+// The orientation errors (deg) of a walk's states after `after` s.
+std::vector<double> rotAfter(const WalkFigures& w, double after) {
+  std::vector<double> out;
+  for (const auto& [t, e] : w.rot_at)
+    if (t > after) out.push_back(e);
+  return out;
+}
+
 // How a frame looks when motion analysis finds no camera model: invalid,
 // identity, the features' residuals their raw motion.
 MotionData withoutCameraModel(MotionData md) {
@@ -520,13 +528,7 @@ TEST(AnchorManager, FloorWalkSlowTurnsWithAGyroBias) {
   runWalk(&f, OutOfView::kVisual, std::nullopt, std::nullopt, setup);
   setup.imu.video_bias = false;
   runWalk(&without, OutOfView::kVisual, std::nullopt, std::nullopt, setup);
-  auto lastTwoSeconds = [](const WalkFigures& w) {
-    std::vector<double> last;
-    for (const auto& [t, e] : w.rot_at)
-      if (t > 58) last.push_back(e);
-    return last;
-  };
-  const std::vector<double> last = lastTwoSeconds(f), last_without = lastTwoSeconds(without);
+  const std::vector<double> last = rotAfter(f, 58), last_without = rotAfter(without, 58);
   ASSERT_FALSE(last.empty());
   ASSERT_FALSE(last_without.empty());
   ASSERT_TRUE(f.video_bias);
@@ -562,9 +564,7 @@ TEST(AnchorManager, FloorWalkSlowTurnsFindTheImuRotation) {
   };
   WalkFigures f;
   runWalk(&f, OutOfView::kVisual, hidden, std::nullopt, setup);
-  std::vector<double> last;
-  for (const auto& [t, e] : f.rot_at)
-    if (t > 28) last.push_back(e);
+  const std::vector<double> last = rotAfter(f, 28);
   ASSERT_FALSE(last.empty());
   std::printf("slow walk, rotation hidden: calibrating for %d states, found %.2f s in, %.3f deg off at the end; "
               "orientation median %.3f deg, over the last 2 s %.3f deg; bias from %s\n",

@@ -16,6 +16,11 @@ namespace {
 constexpr double kDeg = 180.0 / M_PI;
 constexpr double kDt = 1.0 / 30;
 
+// The hand's turn rate (IMU frame, rad/s) at time s.
+Eigen::Vector3d handRate(double s) {
+  return Eigen::Vector3d(0.3 * std::sin(2.1 * s), 0.2 * std::cos(1.3 * s + 0.5), 0.25 * std::sin(0.9 * s + 1.0));
+}
+
 // `frames` frames of a hand's turning (IMU frame, rad per frame) seen by a
 // camera turned by R_cam_imu: the gyro's turn carries `bias`, the camera's
 // `noise` rad per frame; every 25th frame is odd (a passing object: 5 deg
@@ -27,8 +32,7 @@ void feed(VideoGyroBias* vb, const Eigen::Matrix3d& R_cam_imu, const Eigen::Vect
   std::normal_distribution<double> n(0, 1);
   for (int f = 0; f < frames; ++f) {
     const double s = f * kDt;
-    const Eigen::Vector3d w(0.3 * std::sin(2.1 * s), 0.2 * std::cos(1.3 * s + 0.5), 0.25 * std::sin(0.9 * s + 1.0));
-    const Eigen::Vector3d turn = (w + drift) * kDt;  // rad, IMU frame
+    const Eigen::Vector3d turn = (handRate(s) + drift) * kDt;  // rad, IMU frame
     Eigen::Vector3d cam = R_cam_imu * turn + noise * Eigen::Vector3d(n(rng), n(rng), n(rng));
     if (f % 25 == 24) cam += Eigen::Vector3d(0.09, 0, 0);
     vb->add(1000 + (f + 1) * kDt, kDt, turn + bias * kDt, cam);
@@ -75,11 +79,6 @@ TEST(VideoGyroBias, ARoughRotationIsRefinedWithTheBias) {
   EXPECT_GT((as_given->bias - bias).norm() * kDeg, 0.05);
   EXPECT_LE((refined->bias - bias).norm(), 4 * refined->sigma.norm());
   EXPECT_LT((refined->bias - bias).norm() * kDeg, 0.01);
-}
-
-// The hand's turn rate of feed() (IMU frame, rad/s) at time s.
-Eigen::Vector3d handRate(double s) {
-  return Eigen::Vector3d(0.3 * std::sin(2.1 * s), 0.2 * std::cos(1.3 * s + 0.5), 0.25 * std::sin(0.9 * s + 1.0));
 }
 
 // The gyro is read `offset` s after the frames while the IMU's stamps are

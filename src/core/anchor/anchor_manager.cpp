@@ -288,9 +288,7 @@ void AnchorManager::readTurns() {
     const Turn t = turns_.front();
     turns_.pop_front();
     Eigen::Matrix3d turn;  // the IMU at t1 in the IMU at t0
-    if (imu_.acrossGap(t.t0, t.t1) ||  // before the IMU began, or a gap
-        !imu_.turnAtImuStamps(t.t0 + imu_.timeOffset(), t.t1 + imu_.timeOffset(), &turn))
-      continue;
+    if (!imuTurn(t.t0, t.t1, &turn)) continue;
     addRotationTurn(t, turn);
     addBiasTurn(t, turn);
     if (++bias_turns_since_fit_ >= kVideoBiasRefitTurns) {
@@ -306,6 +304,11 @@ void AnchorManager::readTurns() {
   }
   // Bounded: turns the gyro never covers (an IMU that stopped) are dropped.
   while (turns_.size() > kMaxWaitingTurns) turns_.pop_front();
+}
+
+bool AnchorManager::imuTurn(double t0, double t1, Eigen::Matrix3d* turn) const {
+  // Not before the IMU began, nor across a gap.
+  return !imu_.acrossGap(t0, t1) && imu_.turnAtImuStamps(t0 + imu_.timeOffset(), t1 + imu_.timeOffset(), turn);
 }
 
 void AnchorManager::addRotationTurn(const Turn& t, const Eigen::Matrix3d& R_imu0_imu1) {
@@ -325,9 +328,7 @@ void AnchorManager::addRotationTurn(const Turn& t, const Eigen::Matrix3d& R_imu0
   const Eigen::Vector3d theta_cam = rotationVector(slow_turn_.R_cam);
   if (theta_cam.norm() < min_angle) return;
   Eigen::Matrix3d turn;
-  const double o = imu_.timeOffset();
-  if (!imu_.acrossGap(slow_turn_.t0, slow_turn_.t1) && imu_.turnAtImuStamps(slow_turn_.t0 + o, slow_turn_.t1 + o, &turn))
-    video_rotation_.add(theta_cam, rotationVector(turn));
+  if (imuTurn(slow_turn_.t0, slow_turn_.t1, &turn)) video_rotation_.add(theta_cam, rotationVector(turn));
   slow_turn_ = SlowTurn();
 }
 

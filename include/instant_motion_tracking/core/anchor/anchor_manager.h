@@ -239,6 +239,10 @@ class AnchorManager {
   // The video's turns waiting for the gyro to cover them, and the estimate
   // fed with those it does.
   void readTurns();
+  // The IMU's turn between image stamps t0 and t1 (the IMU at t1 in the IMU
+  // at t0, read at the time offset, as the gyro measured it); false before
+  // the IMU began or across a gap.
+  bool imuTurn(double t0, double t1, Eigen::Matrix3d* turn) const;
   // The IMU's turn between IMU stamps s0 and s1 for the camera fallback;
   // up to kFallbackLeadSeconds past the newest sample, extrapolated.
   bool fallbackTurn(double s0, double s1, Eigen::Matrix3d* turn) const;

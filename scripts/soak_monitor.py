@@ -179,7 +179,7 @@ def main():
         for o in OUTPUTS:
             if m.out[o] == 0:
                 failures.append("minute %d: no message on %s" % (minute, o))
-        if any("not loaded" in r or "does not answer" in r for r in m.watchdog_errors.values()):
+        if any("not loaded" in r or "has not answered" in r for r in m.watchdog_errors.values()):
             failures.append("minute %d: graph_watchdog: %s" % (minute, wd))
         if minute == 2:
             rss2 = rss

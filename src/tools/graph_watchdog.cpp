@@ -7,7 +7,9 @@
 // status on /diagnostics (NodeletHealth). After its first `silence` s (the
 // graph coming up), a nodelet is in ERROR when
 //  - it is not loaded in the manager (unloaded: a broken bond, a crash, a
-//    user's unload), or the manager does not answer;
+//    user's unload; read from the manager's last answer), or the manager has
+//    not answered for `silence` s (a loaded machine makes one call late, which
+//    is no failure);
 //  - its diagnostics have been silent for `silence` s (hung, or its manager
 //    died);
 //  - a tracker is subscribed (someone wants its outputs) and has processed
@@ -99,13 +101,13 @@ class GraphWatchdog {
   void check() {
     const ros::WallTime now = ros::WallTime::now();
     // Which nodelets the manager has (a short wait: a busy manager answers late).
-    std::set<std::string> loaded;
-    bool answered = false;
     nodelet::NodeletList srv;
     if (list_.waitForExistence(ros::Duration(std::min(1.0, period_))) && list_.call(srv)) {
-      answered = true;
-      for (const std::string& n : srv.response.nodelets) loaded.insert(withoutSlash(n));
+      last_answer_ = now;
+      loaded_.clear();
+      for (const std::string& n : srv.response.nodelets) loaded_.insert(withoutSlash(n));
     }
+    const double unanswered = (now - (last_answer_.isZero() ? started_ : last_answer_)).toSec();
     const bool grace = (now - started_).toSec() < silence_;  // the graph is still coming up
     const Watched& source = watched_[names_.front()];  // the motion analysis
     diagnostic_msgs::DiagnosticArray out;
@@ -114,9 +116,10 @@ class GraphWatchdog {
       Watched& w = watched_[name];
       std::string reason;
       const double silent = (now - (w.last_diagnostics.isZero() ? started_ : w.last_diagnostics)).toSec();
-      if (!answered) {
-        reason = "its manager " + manager_ + " does not answer " + list_.getService();
-      } else if (!loaded.count(name)) {
+      if (unanswered > silence_) {
+        reason = "its manager " + manager_ + " has not answered " + list_.getService() + " for " +
+                 std::to_string(static_cast<int>(unanswered)) + " s";
+      } else if (!last_answer_.isZero() && !loaded_.count(name)) {
         reason = "not loaded in " + manager_ + " (unloaded: a broken bond, a crash, or an unload request)";
       } else if (silent > silence_) {
         reason = "no diagnostics for " + std::to_string(static_cast<int>(silent)) + " s (hung?)";
@@ -156,6 +159,8 @@ class GraphWatchdog {
   std::vector<std::string> names_;
   double period_ = 1, silence_ = 5;
   ros::WallTime started_;
+  ros::WallTime last_answer_;    // the manager's last answer to list (zero: none yet)
+  std::set<std::string> loaded_;  // the nodelets it listed then
   std::map<std::string, Watched> watched_;
   ros::ServiceClient list_;
   ros::Publisher pub_;

@@ -157,14 +157,22 @@ TEST_F(PosterOrbit, ChainedHomographyMeasuredForComparison) {
 // way back (the camera closer, more parallax) up to ~80%; features on it move
 // unlike the poster's. The tracker must neither follow the card nor lose the
 // poster, and be back on it once the card has left.
-TEST(PosterOccluded, CardSlidingAcrossThePosterDoesNotDragIt) {
+struct OccludedRun {
+  double median = 0, partly = 0, mostly = 0, after = 0, most_covered = 0;
+};
+
+OccludedRun trackOccludedPoster(uint64_t seed) {
+  OccludedRun run;
   auto opt = SceneOptions::fromPreset("poster_orbit");
-  ASSERT_TRUE(opt);
+  EXPECT_TRUE(opt);
+  if (!opt) return run;
   opt->duration = 6.0;
+  opt->seed = seed;  // textures and sensor noise
   const ScenePlane* poster = nullptr;
   for (const ScenePlane& p : opt->planes)
     if (p.kind == ScenePlane::Kind::kTarget) poster = &p;
-  ASSERT_TRUE(poster);
+  EXPECT_TRUE(poster);
+  if (!poster) return run;
   ScenePlane card;
   card.kind = ScenePlane::Kind::kCard;
   card.id = 2;
@@ -180,7 +188,8 @@ TEST(PosterOccluded, CardSlidingAcrossThePosterDoesNotDragIt) {
   opt->planes.push_back(card);
   std::string err;
   auto scene = SceneGenerator::create(*opt, &err);
-  ASSERT_TRUE(scene) << err;
+  EXPECT_TRUE(scene) << err;
+  if (!scene) return run;
 
   std::vector<double> errors;
   std::vector<double> covered;  // occluded fraction of the poster per frame (truth)
@@ -191,32 +200,55 @@ TEST(PosterOccluded, CardSlidingAcrossThePosterDoesNotDragIt) {
       std::printf("%d err %.2f covered %.2f cc %.3f visible %.2f pts %d st %d\n", i, e, t.occluded_fraction,
                   s.correlation, s.visible, s.points, static_cast<int>(s.status));
   });
-  ASSERT_FALSE(HasFatalFailure());
+  if (errors.empty()) return run;
   // Worst error over frames up to 40% covered, more covered, and after the
   // card has left for good (none of the poster covered from then on).
-  double partly = 0, mostly = 0, after = 0, most_covered = 0;
   size_t last_covered = 0;
   for (size_t i = 0; i < errors.size(); ++i) {
-    double& worst = covered[i] <= 0.4 ? partly : mostly;
+    double& worst = covered[i] <= 0.4 ? run.partly : run.mostly;
     worst = std::max(worst, errors[i]);
-    most_covered = std::max(most_covered, covered[i]);
+    run.most_covered = std::max(run.most_covered, covered[i]);
     if (covered[i] > 0) last_covered = i;
   }
-  ASSERT_LT(last_covered + 1, errors.size());
-  for (size_t i = last_covered + 1; i < errors.size(); ++i) after = std::max(after, errors[i]);
+  EXPECT_LT(last_covered + 1, errors.size());
+  for (size_t i = last_covered + 1; i < errors.size(); ++i) run.after = std::max(run.after, errors[i]);
+  run.median = percentile(errors, 0.5);
   std::printf(
-      "occluded poster: up to %.0f%% covered; alignment error median %.3f px, worst %.2f px "
+      "occluded poster, seed %d: up to %.0f%% covered; alignment error median %.3f px, worst %.2f px "
       "up to 40%% covered, %.2f px more covered, %.3f px after the card left\n",
-      100 * most_covered, percentile(errors, 0.5), partly, mostly, after);
-  EXPECT_GE(most_covered, 0.7);  // the scene does what it says
-  // Measured 2.46 px, 8.20 px and 0.125 px: the card, which crosses hundreds
-  // of px, neither drags the poster nor makes it lost; while four fifths of
-  // it are covered the camera motion and the few features left carry it to
-  // within a few px, and once the card has left the alignment is as precise
-  // as without it (poster_orbit: median 0.027 px).
-  EXPECT_LE(partly, 4.0);
-  EXPECT_LE(mostly, 12.0);
-  EXPECT_LE(after, 0.5);
+      static_cast<int>(seed), 100 * run.most_covered, run.median, run.partly, run.mostly, run.after);
+  return run;
+}
+
+// Over 4 seeds: one run's worst frame is chaotic (where the card's edge
+// falls on the poster's texture decides which pixels are taken for it; the
+// same seed measured 2.46 px on one CPU and 6.79 px on another), so each
+// seed's worst is held to "not dragged" and their mean to the precision.
+TEST(PosterOccluded, CardSlidingAcrossThePosterDoesNotDragIt) {
+  double partly_sum = 0, mostly_sum = 0;
+  for (uint64_t seed = 1; seed <= 4; ++seed) {
+    const OccludedRun r = trackOccludedPoster(seed);
+    ASSERT_FALSE(HasFatalFailure());
+    EXPECT_GE(r.most_covered, 0.7) << "seed " << seed;  // the scene does what it says
+    // The card crosses hundreds of px: a poster dragged by it, or lost, is
+    // tens of px off (before the local-correlation mask and the affine
+    // alignment of a half-covered target, seeds 3-5 went 14-31 px while up
+    // to 40% was covered, 14-31 px more covered). Measured worst 3.50 px
+    // (seed 4) up to 40% covered, 7.17 px more covered over seeds 1-6.
+    EXPECT_LE(r.partly, 8.0) << "seed " << seed;
+    EXPECT_LE(r.mostly, 12.0) << "seed " << seed;
+    // Once the card has left the alignment is as precise as without it
+    // (poster_orbit: median 0.027 px; measured 0.04-0.12 px).
+    EXPECT_LE(r.after, 0.5) << "seed " << seed;
+    partly_sum += r.partly;
+    mostly_sum += r.mostly;
+  }
+  // Measured means 2.22 px up to 40% covered (seeds 1-4: 2.87, 1.37, 1.12,
+  // 3.50) and 4.86 px more covered; before, 6.47 and 14.2 (the same seeds).
+  // While four fifths are covered the camera motion and the few features
+  // left carry it to within a few px.
+  EXPECT_LE(partly_sum / 4, 3.0);
+  EXPECT_LE(mostly_sum / 4, 7.0);
 }
 
 // The camera pans away until the poster is entirely out of view for ~1 s,

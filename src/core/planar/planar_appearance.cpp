@@ -182,6 +182,14 @@ void sampleImage(const cv::Mat& gray, int level, const Eigen::Matrix3d& M, cv::S
   cv::erode(*valid, *valid, cv::Mat());  // no bilinear samples mixing in the border
 }
 
+// Local correlation with the template below which a textured part of it is
+// taken as covered (an occluder's texture correlates near 0 with it; the
+// target's own, aligned, near 1).
+constexpr double kOccluderCorrelation = 0.3;
+// Gray levels: the template's local spread from which it has texture to
+// correlate (searchTemplate's featureless tiles alike).
+constexpr double kTexturedStd = 2.0;
+
 cv::Mat unoccludedPixels(const cv::Mat& tpl, const cv::Mat& grad, const cv::Mat& aligned,
                          const cv::Mat& valid, double k_sigma, double shift) {
   cv::Mat fit = valid.clone(), resid;
@@ -205,6 +213,36 @@ cv::Mat unoccludedPixels(const cv::Mat& tpl, const cv::Mat& grad, const cv::Mat&
   cv::boxFilter(outliers, dense, CV_32F, cv::Size(win, win), cv::Point(-1, -1), true,
                 cv::BORDER_REPLICATE);
   cv::Mat covered = dense > 0.5 * 255;
+  // A textured occluder explains part of the residual test's tolerance (the
+  // template's gradient times the shift allowed) by its own texture: it is
+  // found by its local correlation with the template instead, near zero
+  // whatever either texture is. Only where the template has texture to
+  // correlate (flat parts are the residual test's).
+  // After an alignment only (a small `shift`): around a prediction a few
+  // pixels off, fine texture does not correlate with itself either.
+  if (shift <= 1.0) {
+    cv::Mat vf;
+    valid.convertTo(vf, CV_32F, 1.0 / 255);
+    auto local = [&](const cv::Mat& m) {  // window means over the valid pixels
+      cv::Mat out;
+      cv::boxFilter(m.mul(vf), out, CV_32F, cv::Size(win, win), cv::Point(-1, -1), true, cv::BORDER_CONSTANT);
+      return out;
+    };
+    cv::Mat n = local(cv::Mat(valid.size(), CV_32F, cv::Scalar(1)));
+    const cv::Mat seen = n > 0.5;  // windows mostly on valid pixels
+    n = cv::max(n, 1e-3);
+    const cv::Mat mt = local(tpl) / n, ma = local(aligned) / n;
+    const cv::Mat vt = local(tpl.mul(tpl)) / n - mt.mul(mt);
+    const cv::Mat va = local(aligned.mul(aligned)) / n - ma.mul(ma);
+    const cv::Mat cov = local(tpl.mul(aligned)) / n - mt.mul(ma);
+    cv::Mat denom;
+    cv::sqrt(cv::max(vt, 0).mul(cv::max(va, 0)) + 1e-6, denom);
+    const cv::Mat ncc = cov / denom;
+    // (Not from the fit's noise level: with most of the target covered the
+    // photometric fit is the occluder's, and its noise level is the texture's.)
+    const cv::Mat textured = vt > kTexturedStd * kTexturedStd;
+    covered |= textured & (ncc < kOccluderCorrelation) & seen & valid;
+  }
   cv::dilate(covered, covered, cv::getStructuringElement(cv::MORPH_RECT, cv::Size(win, win)));
   cv::Mat keep;
   cv::bitwise_and(valid, ~covered, keep);

@@ -52,7 +52,11 @@ void sampleImage(const cv::Mat& gray, int level, const Eigen::Matrix3d& M, cv::S
 // edges what a misalignment by `shift` px adds (`grad`: the template's
 // gradient magnitude). Where outliers are dense (more than half of a window
 // ~1/8 of the template) the template is taken as covered; isolated ones are
-// noise, not occluders.
+// noise, not occluders. After an alignment (`shift` at most 1 px) a textured
+// part of the template is also taken as covered where its correlation with
+// `aligned` over such a window is low: a textured occluder passes the
+// residual test where the tolerance for misalignment is large, but does not
+// correlate with what it hides.
 cv::Mat unoccludedPixels(const cv::Mat& tpl, const cv::Mat& grad, const cv::Mat& aligned,
                          const cv::Mat& valid, double k_sigma, double shift);
 

@@ -66,7 +66,10 @@ bool PlanarTargetTracker::captureAppearance(const cv::Mat& gray) {
 // part of the target (an occluder) is masked out: after each alignment the
 // template pixels the frame does not explain are found (unoccludedPixels) and,
 // when they changed, the alignment is redone from the same start without
-// them, so an occluder cannot drag the target. `seen` (optional, on the
+// them, so an occluder cannot drag the target. With less than half of the
+// target seen the alignment is affine, not a homography: the part left (a
+// strip beside an occluder) does not constrain the perspective, which then
+// swung the far corners by many px. `seen` (optional, on the
 // template, e.g. from search()) excludes parts known to be covered from the
 // start: with much of the target covered, the photometric fit behind
 // unoccludedPixels may take the occluder for the target. False when the
@@ -109,10 +112,17 @@ bool PlanarTargetTracker::align(const cv::Mat& gray, Eigen::Matrix3d* G, double*
     cv::Mat warp;
     for (int round = 0; round < 3; ++round) {
       warp = cv::Mat::eye(3, 3, CV_32F);
-      if (cv::countNonZero(keep) < 0.1 * valid.total())
+      const int kept = cv::countNonZero(keep);
+      if (kept < 0.1 * valid.total())
         return false;  // hardly anything left to align
+      // Less than half the target seen: its perspective is not constrained
+      // by the part left (a strip beside an occluder), an affine map is.
+      const bool affine = kept < 0.5 * n_valid;
       try {
-        *cc = cv::findTransformECC(tpl, warped, warp, cv::MOTION_HOMOGRAPHY, criteria, keep, 5);
+        cv::Mat w = affine ? cv::Mat::eye(2, 3, CV_32F) : warp;
+        *cc = cv::findTransformECC(tpl, warped, w, affine ? cv::MOTION_AFFINE : cv::MOTION_HOMOGRAPHY, criteria,
+                                   keep, 5);
+        if (affine) w.copyTo(warp(cv::Rect(0, 0, 3, 2)));
       } catch (const cv::Exception&) {
         return false;  // did not converge (uncorrelated images)
       }

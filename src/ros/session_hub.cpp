@@ -1,9 +1,24 @@
 #include "instant_motion_tracking/ros/session_hub.h"
 
+#include <algorithm>
+#include <utility>
 #include <vector>
 
 namespace imt {
 namespace {
+
+// The member callbacks this thread is running (hub, member), innermost last:
+// a member that leaves from inside its own callback does not wait for itself.
+thread_local std::vector<std::pair<const SessionHub*, SessionHub::MemberId>> t_running;
+
+// Runs `f` when the scope ends, however it ends.
+template <class F>
+struct Finally {
+  F f;
+  ~Finally() { f(); }
+};
+template <class F>
+Finally(F) -> Finally<F>;
 
 // The pipeline parameters in which `a` and `b` differ, by name (at most
 // three); "" when they agree.
@@ -80,9 +95,18 @@ SessionHub::MemberId SessionHub::addMember(Member member) {
 
 void SessionHub::removeMember(MemberId id) {
   {
-    std::lock_guard<std::recursive_mutex> lock(mutex_);
-    members_.erase(id);
+    std::unique_lock<std::recursive_mutex> lock(mutex_);
+    members_.erase(id);  // no call of its callbacks starts after this
     wants_.erase(id);
+    // Calls already started (notifyDemand() makes them outside the lock) are
+    // waited for: once this returns, the member may be destroyed. Its own
+    // calls that this thread is inside (it leaves from its callback) are not.
+    const std::pair<const SessionHub*, MemberId> self(this, id);
+    const auto own = std::count(t_running.begin(), t_running.end(), self);
+    calls_done_.wait(lock, [&] {
+      const auto it = calls_in_flight_.find(id);
+      return it == calls_in_flight_.end() || it->second <= own;
+    });
   }
   notifyDemand();
 }
@@ -149,13 +173,44 @@ void SessionHub::dispatch() {
 }
 
 void SessionHub::notifyDemand() {
-  std::vector<std::function<void()>> callbacks;
+  // The callbacks are called outside the lock (they re-check subscriptions,
+  // which may ask the hub again or wait for ROS), each counted in flight from
+  // here until it ends: removeMember() waits for those of its member.
+  std::vector<std::pair<MemberId, std::function<void()>>> calls;
   {
     std::lock_guard<std::recursive_mutex> lock(mutex_);
-    for (const auto& [id, m] : members_)
-      if (m.on_demand_changed) callbacks.push_back(m.on_demand_changed);
+    for (const auto& [id, m] : members_) {
+      if (!m.on_demand_changed) continue;
+      calls.emplace_back(id, m.on_demand_changed);
+      ++calls_in_flight_[id];
+    }
   }
-  for (auto& cb : callbacks) cb();
+  size_t next = 0;
+  auto endCall = [this](MemberId id) {
+    {
+      std::lock_guard<std::recursive_mutex> lock(mutex_);
+      if (--calls_in_flight_[id] == 0) calls_in_flight_.erase(id);
+    }
+    calls_done_.notify_all();
+  };
+  // Should a callback throw, the calls not made are ended too.
+  const Finally end_rest{[&] {
+    for (; next < calls.size(); ++next) endCall(calls[next].first);
+  }};
+  for (; next < calls.size(); ++next) {
+    const MemberId id = calls[next].first;
+    bool member;
+    {
+      std::lock_guard<std::recursive_mutex> lock(mutex_);
+      member = members_.count(id) > 0;  // it may have left since the copy
+    }
+    if (member) {
+      t_running.emplace_back(this, id);
+      const Finally pop{[] { t_running.pop_back(); }};
+      calls[next].second();
+    }
+    endCall(id);
+  }
 }
 
 }  // namespace imt

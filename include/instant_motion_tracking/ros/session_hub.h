@@ -23,7 +23,12 @@
 // Threading: every method may be called from any thread. `on_result` runs
 // under the hub's lock: it must not call the hub's run() (it may read
 // through the session reference it is given). `on_demand_changed` runs
-// without it.
+// without it, on whichever thread changed the demand. removeMember() returns
+// once no callback of that member runs, nor will: a result being dispatched
+// holds the lock it takes, and an on_demand_changed in flight on another
+// thread is waited for (a member leaving from inside its own callback does
+// not wait for that call). So a member may be destroyed as soon as it has
+// left; it must not leave under run() or from its on_result.
 #pragma once
 
 #include "instant_motion_tracking/core/tracking_session.h"
@@ -32,6 +37,7 @@
 #include <ros/time.h>
 #include <std_msgs/Header.h>
 
+#include <condition_variable>
 #include <deque>
 #include <functional>
 #include <map>
@@ -61,6 +67,8 @@ class SessionHub {
   static std::shared_ptr<SessionHub> join(const std::string& key, const Config& config, std::string* note);
 
   MemberId addMember(Member member);
+  // Waits for the member's on_demand_changed calls in flight on other
+  // threads (see Threading above); then none starts.
   void removeMember(MemberId id);
   // Whether this member wants frames analysed (it has items or subscribers).
   void setWantsFrames(MemberId id, bool wants);
@@ -106,6 +114,10 @@ class SessionHub {
   std::unique_ptr<TrackingSession> session_;
   std::map<MemberId, Member> members_;
   std::map<MemberId, bool> wants_;
+  // on_demand_changed calls made and not yet ended, per member (notifyDemand),
+  // and their end signalled (removeMember waits on it under mutex_).
+  std::map<MemberId, int> calls_in_flight_;
+  std::condition_variable_any calls_done_;
   MemberId next_id_ = 0;
   std::deque<Arrival> arrivals_;  // of recent frames, for their results
   std::string frame_id_;

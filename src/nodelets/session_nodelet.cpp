@@ -99,14 +99,21 @@ std::string SessionNodelet::retryHint() {
          "; retry shortly)";
 }
 
+// camera_info into the session; a refused one (ros/conversions.h
+// cameraInfoForFrames: the same check as track_bag's) is warned about,
+// throttled, and counted; the session keeps the camera model it had.
 void SessionNodelet::infoCb(const sensor_msgs::CameraInfoConstPtr& msg) {
-  CameraModel k;
   std::string why;
-  if (fromCameraInfo(*msg, &k, &why, config_.pipeline.image_rectified)) {
-    session([&](TrackingSession& s) { s.setCameraInfo(k); });
-  } else {
-    NODELET_WARN_THROTTLE(10.0, "ignoring camera_info: %s", why.c_str());
-  }
+  const bool accepted = session([&](TrackingSession& s) {
+    CameraModel k;
+    if (!cameraInfoForFrames(*msg, config_.pipeline.image_rectified, s.cache().imageSize(), &k, &why)) return false;
+    s.setCameraInfo(k);
+    return true;
+  });
+  if (accepted) return;
+  NODELET_WARN_THROTTLE(5.0, "camera_info refused (the last one accepted, else default_hfov_deg, stands): %s",
+                        why.c_str());
+  health_.noteCameraInfoRefused(why);
 }
 
 // motion_data from another process (no image feeder in this manager). When

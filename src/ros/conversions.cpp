@@ -2,11 +2,19 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <initializer_list>
 #include <string>
 
 namespace imt {
 namespace {
+// A number for a message: 6 significant digits.
+std::string num(double v) {
+  char buf[32];
+  std::snprintf(buf, sizeof(buf), "%g", v);
+  return buf;
+}
+
 bool finite3(const geometry_msgs::Vector3& v) {
   return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z);
 }
@@ -115,14 +123,49 @@ bool fromCameraInfo(const sensor_msgs::CameraInfo& info, CameraModel* k, std::st
   const double cx = image_rectified ? info.P[2] : info.K[2];
   const double cy = image_rectified ? info.P[6] : info.K[5];
   const char* which = image_rectified ? "P" : "K";
-  if (!(std::isfinite(fx) && std::isfinite(fy) && std::isfinite(cx) && std::isfinite(cy)) ||
-      fx <= 0 || fy <= 0) {
+  const bool all_finite = image_rectified
+                              ? std::all_of(info.P.begin(), info.P.end(), [](double v) { return std::isfinite(v); })
+                              : std::all_of(info.K.begin(), info.K.end(), [](double v) { return std::isfinite(v); });
+  if (!all_finite) {
+    *why = std::string("camera_info ") + which + " has a NaN or infinite entry";
+    return false;
+  }
+  if (fx <= 0 || fy <= 0) {
     *why = std::string("camera_info ") + which + " has no usable focal length" +
            (image_rectified ? " (image_rectified: true uses P)" : "");
     return false;
   }
+  // K's last row is 0 0 1 and its second row starts with 0 (1e-6: the
+  // rounding of a K written as text).
+  if (!image_rectified && (std::abs(info.K[3]) > 1e-6 || std::abs(info.K[6]) > 1e-6 ||
+                           std::abs(info.K[7]) > 1e-6 || std::abs(info.K[8] - 1) > 1e-6)) {
+    *why = "camera_info K is not a camera matrix (expected [fx s cx; 0 fy cy; 0 0 1])";
+    return false;
+  }
   if (info.width == 0 || info.height == 0) {
     *why = "camera_info has no image size";
+    return false;
+  }
+  const double w = info.width, h = info.height;
+  if (w > 65536 || h > 65536) {  // as images (image_conversion.h)
+    *why = "camera_info size " + std::to_string(info.width) + "x" + std::to_string(info.height) +
+           " is over 65536 px";
+    return false;
+  }
+  // Plausible for a lens: a field of view from ~0.1 deg (focal length 1000
+  // image sizes) to ~180 deg (1/1000 of one), the principal point within an
+  // image size of the image. Beyond these the model would be silently wrong.
+  const double size = std::max(w, h);
+  if (fx < 1e-3 * size || fy < 1e-3 * size || fx > 1e3 * size || fy > 1e3 * size) {
+    *why = std::string("camera_info ") + which + " focal length (fx " + num(fx) + ", fy " +
+           num(fy) + ") is implausible for a " + std::to_string(info.width) + "x" +
+           std::to_string(info.height) + " image (from 0.001 to 1000 times its size)";
+    return false;
+  }
+  if (cx < -w || cx > 2 * w || cy < -h || cy > 2 * h) {
+    *why = std::string("camera_info ") + which + " principal point (" + num(cx) + ", " +
+           num(cy) + ") is far outside the " + std::to_string(info.width) + "x" +
+           std::to_string(info.height) + " image";
     return false;
   }
   CameraModel m;
@@ -148,6 +191,19 @@ bool fromCameraInfo(const sensor_msgs::CameraInfo& info, CameraModel* k, std::st
       *why = "camera_info D: " + e;
       return false;
     }
+  }
+  *k = m;
+  return true;
+}
+
+bool cameraInfoForFrames(const sensor_msgs::CameraInfo& info, bool image_rectified, const cv::Size& frames,
+                         CameraModel* k, std::string* why) {
+  CameraModel m;
+  if (!fromCameraInfo(info, &m, why, image_rectified)) return false;
+  if (frames.width > 0 && (m.width != frames.width || m.height != frames.height)) {
+    *why = "camera_info size " + std::to_string(m.width) + "x" + std::to_string(m.height) + " differs from the images' " +
+           std::to_string(frames.width) + "x" + std::to_string(frames.height);
+    return false;
   }
   *k = m;
   return true;

@@ -70,6 +70,13 @@ void NodeletHealth::noteGap(const std::string& reason) {
   window_.gap_reason = reason;
 }
 
+void NodeletHealth::noteCameraInfoRefused(const std::string& why) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  ++info_refused_;
+  ++window_.info_refused;
+  window_.info_reason = why;
+}
+
 void NodeletHealth::setItems(const std::vector<std::string>& statuses) {
   std::lock_guard<std::mutex> lock(mutex_);
   items_.clear();
@@ -105,6 +112,8 @@ void NodeletHealth::inputStatus(diagnostic_updater::DiagnosticStatusWrapper& s) 
     s.summaryf(DiagnosticStatus::WARN, "dropped %d inputs: %s", w.dropped, w.drop_reason.c_str());
   } else if (w.gaps > 0) {
     s.summaryf(DiagnosticStatus::WARN, "gap: %s", w.gap_reason.c_str());
+  } else if (w.info_refused > 0) {
+    s.summaryf(DiagnosticStatus::WARN, "refused %d camera_info: %s", w.info_refused, w.info_reason.c_str());
   } else if (w.frames == 0) {
     const double quiet = last_input_.isZero() ? -1 : (w.end - last_input_).toSec();
     if (quiet < 0)
@@ -121,6 +130,7 @@ void NodeletHealth::inputStatus(diagnostic_updater::DiagnosticStatusWrapper& s) 
   s.add("dropped", dropped_);
   s.add("resets", resets_);
   s.add("gaps", gaps_);
+  s.add("camera_info refused", info_refused_);
 }
 
 void NodeletHealth::processingStatus(diagnostic_updater::DiagnosticStatusWrapper& s) {

@@ -5,7 +5,10 @@
 // (the same code the nodelets run), io/ (INIT.yaml, CSV, summary.json).
 //
 // On any bad input it exits non-zero with one line on stderr; warnings and
-// notes of a successful run are printed once each, after the run.
+// notes of a successful run are printed once each, after the run. Bad
+// messages inside a usable bag are what the live graph drops: a malformed
+// image, a refused camera_info (counted in summary.json, one warning per
+// cause with its count); a bag with no usable image at all is an error.
 #include "instant_motion_tracking/core/tracking_session.h"
 #include "instant_motion_tracking/io/config.h"
 #include "instant_motion_tracking/io/csv_writer.h"
@@ -88,6 +91,13 @@ class TrackBagRun {
     int count = 0;
     int first_frame = 0;
     double first_stamp = 0;
+  };
+  // Messages dropped for one cause (the reason with its numbers left out):
+  // how many, and the first one's reason and place.
+  struct DropInfo {
+    int count = 0;
+    size_t order = 0;  // causes are reported in the order they first came
+    std::string first_reason, first_where;
   };
 
   // Configuration, INIT.yaml (cheap to check, so first), the bag with every
@@ -181,6 +191,7 @@ class TrackBagRun {
                                            !args_.quiet && isatty(STDERR_FILENO));
     imt::BagInput::Callbacks cb;
     cb.imu = [this](const sensor_msgs::Imu& m, const ros::Time&) { onImu(m); };
+    cb.camera_info = [this](const sensor_msgs::CameraInfo& m) { onCameraInfo(m); };
     cb.image = [this](const imt::BagImage& im, std::string* why) { return onImage(im, why); };
     Stopwatch clock;
     std::string err;
@@ -191,7 +202,48 @@ class TrackBagRun {
     session_->advance(/*all=*/true);
     play_seconds_ = clock.lap();
     progress_->finish();
+    if (frames_ == 0) {
+      // Every frame malformed (frames dropped by the time rules follow a
+      // frame that was not): nothing to track.
+      const DropInfo& first = *inOrder(malformed_).front();
+      fail("no usable image on " + input_.imageTopic() + ": all " + std::to_string(malformedCount()) +
+           " frame(s) are malformed (first: " + first.first_where + ": " + first.first_reason + ")");
+    }
   }
+
+  // Each camera_info as it comes, checked as live (the same function): an
+  // accepted one becomes the session's camera model (the first valid one is
+  // already, from before the first frame); a refused one is counted, by
+  // cause, and the model stays.
+  void onCameraInfo(const sensor_msgs::CameraInfo& m) {
+    imt::CameraModel k;
+    std::string why;
+    if (imt::cameraInfoForFrames(m, config_.pipeline.image_rectified, session_->cache().imageSize(), &k, &why)) {
+      session_->setCameraInfo(k);
+      return;
+    }
+    noteDrop(&info_refused_, why, "stamp " + fixed(m.header.stamp.toSec(), 6));
+  }
+
+  static void noteDrop(std::map<std::string, DropInfo>* drops, const std::string& reason, const std::string& where) {
+    DropInfo& d = (*drops)[imt::track_bag::causeOf(reason)];
+    if (d.count++ == 0) {
+      d.order = drops->size() - 1;
+      d.first_reason = reason;
+      d.first_where = where;
+    }
+  }
+  static int total(const std::map<std::string, DropInfo>& drops) {
+    int n = 0;
+    for (const auto& [cause, d] : drops) n += d.count;
+    return n;
+  }
+  static std::vector<const DropInfo*> inOrder(const std::map<std::string, DropInfo>& drops) {
+    std::vector<const DropInfo*> v(drops.size());
+    for (const auto& [cause, d] : drops) v[d.order] = &d;
+    return v;
+  }
+  int malformedCount() const { return total(malformed_); }
 
   void onImu(const sensor_msgs::Imu& m) {
     imt::ImuSample s;
@@ -204,10 +256,14 @@ class TrackBagRun {
     ++imu_outcomes_[session_->addImu(s)];
   }
 
-  // The frame as gray, or a message naming it.
+  // "frame 3 (stamp 1000.100000) on /cam/image_raw"
+  std::string whereIs(const imt::BagImage& im) const {
+    return "frame " + std::to_string(im.index) + " (stamp " + fixed(im.header().stamp.toSec(), 6) + ") on " +
+           input_.imageTopic();
+  }
+
+  // The frame as gray, or why it cannot be (the decoder's words appended).
   bool decode(const imt::BagImage& im, cv::Mat* gray, std::string* why) {
-    const std::string where = "frame " + std::to_string(im.index) + " (stamp " + fixed(im.header().stamp.toSec(), 6) +
-                              ") on " + input_.imageTopic();
     std::string reason, decoder_said;
     bool ok;
     if (im.raw) {
@@ -218,11 +274,11 @@ class TrackBagRun {
       decoder_said = capture_.stop();
     }
     if (!ok) {
-      *why = where + ": " + reason + (decoder_said.empty() ? "" : " [" + decoder_said + "]");
+      *why = reason + (decoder_said.empty() ? "" : " [" + decoder_said + "]");
       return false;
     }
     if (!decoder_said.empty() && decoder_warnings_++ == 0)
-      first_decoder_warning_ = where + ": " + decoder_said;
+      first_decoder_warning_ = whereIs(im) + ": " + decoder_said;
     return true;
   }
 
@@ -243,7 +299,15 @@ class TrackBagRun {
     Stopwatch clock;
     const double stamp = im.header().stamp.toSec();
     cv::Mat gray;
-    if (!decode(im, &gray, why)) return false;
+    std::string reason;
+    if (!decode(im, &gray, &reason)) {
+      // Dropped, as live (the motion-analysis nodelet warns and counts it):
+      // not a frame of the run; one warning per cause after it.
+      noteDrop(&malformed_, reason, whereIs(im));
+      dropped_at_[im.index] = "frame " + std::to_string(im.index) + " was dropped: " + reason;
+      stage_seconds_["decode"] += clock.lap();
+      return true;
+    }
     stage_seconds_["decode"] += clock.lap();
 
     const imt::MotionData& md = session_->analyze(gray, stamp);
@@ -251,6 +315,7 @@ class TrackBagRun {
       // A repeated stamp or one slightly behind: not a frame of the run
       // (counted in summary.json; the first one named in a note).
       if (first_drop_.empty()) first_drop_ = "frame " + std::to_string(im.index) + ": " + session_->lastDrop();
+      dropped_at_.emplace(im.index, "frame " + std::to_string(im.index) + " was dropped by the time rules");
       return true;
     }
     if (!session_->lastAnalysisReset().empty() && im.index > 0) {
@@ -295,20 +360,25 @@ class TrackBagRun {
     Stopwatch clock;
     std::string err;
     uint32_t id;
+    // An item given at a frame that was dropped names the frame's fault.
+    auto refused = [&](const char* list, uint32_t item, int frame) {
+      const auto d = dropped_at_.find(frame);
+      fail(args_.init + ": " + list + " (id " + std::to_string(item) + "): " + err +
+           (d == dropped_at_.end() ? "" : " (" + d->second + ")"));
+    };
     for (const imt::RegionInit& r : init_.regions) {
       const cv::Rect2d box(r.box[0], r.box[1], r.box[2], r.box[3]);
-      if (!session_->addRegion(r.id, r.stamp, box, &id, &err))
-        fail(args_.init + ": regions (id " + std::to_string(r.id) + "): " + err);
+      if (!session_->addRegion(r.id, r.stamp, box, &id, &err)) refused("regions", r.id, r.frame);
     }
     for (const imt::PlanarTargetInit& t : init_.planar_targets) {
       std::array<cv::Point2d, 4> corners;
       for (int i = 0; i < 4; ++i) corners[i] = cv::Point2d(t.corners[i][0], t.corners[i][1]);
       if (!session_->addPlanarTarget(t.id, t.stamp, corners, t.size[0], t.size[1], &id, &err))
-        fail(args_.init + ": planar_targets (id " + std::to_string(t.id) + "): " + err);
+        refused("planar_targets", t.id, t.frame);
     }
     for (const imt::AnchorInit& a : init_.anchors) {
       if (!session_->addAnchor(a.id, a.stamp, cv::Point2d(a.point[0], a.point[1]), a.depth, &id, &err))
-        fail(args_.init + ": anchors (id " + std::to_string(a.id) + "): " + err);
+        refused("anchors", a.id, a.frame);
     }
     if (!init_.anchors.empty() && session_->imu().empty())
       notes_.warn("no usable IMU in the bag: anchors are translation-only (status no_imu)");
@@ -407,6 +477,12 @@ class TrackBagRun {
     if (session_->rotationSource() == Source::kVideo)
       notes_.note("IMU-to-camera rotation estimated from the video (no tf: " + tf_why_ +
                   "); anchors are calibrating until the frame it was found at");
+    for (const DropInfo* d : inOrder(malformed_))
+      notes_.warn(std::to_string(d->count) + " malformed frame(s) dropped: " + d->first_reason + " (first: " +
+                  d->first_where + ")");
+    for (const DropInfo* d : inOrder(info_refused_))
+      notes_.warn(std::to_string(d->count) + " camera_info message(s) refused: " + d->first_reason + " (first at " +
+                  d->first_where + ")");
     const auto& drops = session_->timeDrops();
     if (drops.duplicate + drops.behind > 0)
       notes_.warn(std::to_string(drops.duplicate + drops.behind) + " frame(s) dropped by the time rules (" +
@@ -477,7 +553,9 @@ class TrackBagRun {
                               {"frames", e->frames}, {"lateness", e->lateness},
                               {"lateness_sigma", e->lateness_sigma}};
     d["frames_dropped"] = {{"duplicate_stamp", session_->timeDrops().duplicate},
-                           {"stamp_behind", session_->timeDrops().behind}};
+                           {"stamp_behind", session_->timeDrops().behind},
+                           {"malformed_image", malformedCount()}};
+    d["camera_info_refused"] = total(info_refused_);
     d["frame_gaps"] = session_->timeGaps();
     d["frames_read_again"] = rereads_;
     d["models"] = model_counts_;
@@ -522,6 +600,8 @@ class TrackBagRun {
   std::map<std::string, double> stage_seconds_;
   std::map<std::string, int> model_counts_;
   std::map<std::string, ResetInfo> resets_;
+  std::map<std::string, DropInfo> malformed_, info_refused_;  // by cause
+  std::map<int, std::string> dropped_at_;  // frame index -> why that frame is not in the run
   std::map<imt::ImuInput, int> imu_outcomes_;
   int imu_used_ = 0, imu_dropped_ = 0;
   double imu_first_dropped_ = 0;

@@ -4,6 +4,8 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <functional>
+#include <limits>
 #include <vector>
 
 namespace imt {
@@ -82,6 +84,56 @@ TEST(Conversions, CameraInfoShiftsThePrincipalPointByHalfAPixel) {
   bad.K[0] = 0;
   EXPECT_FALSE(fromCameraInfo(bad, &back, &why, false));
   EXPECT_NE(why.find("focal"), std::string::npos);
+}
+
+// What fuzzing put into camera_info (issue 16) is refused with the reason,
+// never turned into a silently wrong camera: NaN or infinite entries, zero
+// or absurd focal lengths, a principal point far off, a broken K, sizes of
+// 4e9 px; and, checked against the frames, a size other than theirs.
+TEST(Conversions, CameraInfoRefusesImplausibleValuesAndAnotherSizeThanTheFrames) {
+  const sensor_msgs::CameraInfo good = toCameraInfo(CameraModel::fromFieldOfView(640, 480, 60.0), std_msgs::Header());
+  CameraModel k;
+  std::string why;
+  ASSERT_TRUE(fromCameraInfo(good, &k, &why, false)) << why;
+  struct Case {
+    const char* name;
+    std::function<void(sensor_msgs::CameraInfo&)> edit;
+    const char* reason;
+  };
+  const double nan = std::numeric_limits<double>::quiet_NaN(), inf = std::numeric_limits<double>::infinity();
+  for (const Case& c : std::vector<Case>{
+           {"nan fx", [&](auto& m) { m.K[0] = nan; }, "camera_info K has a NaN or infinite entry"},
+           {"nan skew", [&](auto& m) { m.K[1] = nan; }, "camera_info K has a NaN or infinite entry"},
+           {"inf cy", [&](auto& m) { m.K[5] = inf; }, "camera_info K has a NaN or infinite entry"},
+           {"zero K", [](auto& m) { m.K.fill(0.0); }, "camera_info K has no usable focal length"},
+           {"negative fy", [](auto& m) { m.K[4] = -500; }, "camera_info K has no usable focal length"},
+           {"tiny fx", [](auto& m) { m.K[0] = 1e-300; },
+            "camera_info K focal length (fx 1e-300, fy 554.256) is implausible for a 640x480 image"},
+           {"huge fy", [](auto& m) { m.K[4] = 1e300; },
+            "camera_info K focal length (fx 554.256, fy 1e+300) is implausible for a 640x480 image"},
+           {"principal point far off", [](auto& m) { m.K[2] = -5000; },
+            "camera_info K principal point (-5000, 239.5) is far outside the 640x480 image"},
+           {"K[8] zero", [](auto& m) { m.K[8] = 0; }, "camera_info K is not a camera matrix"},
+           {"K[6] set", [](auto& m) { m.K[6] = 1e300; }, "camera_info K is not a camera matrix"},
+           {"size 4e9", [](auto& m) { m.width = 4294967295u; }, "camera_info size 4294967295x480 is over 65536 px"},
+           {"no size", [](auto& m) { m.height = 0; }, "camera_info has no image size"},
+       }) {
+    sensor_msgs::CameraInfo m = good;
+    c.edit(m);
+    why.clear();
+    EXPECT_FALSE(fromCameraInfo(m, &k, &why, false)) << c.name;
+    EXPECT_EQ(why.rfind(c.reason, 0), 0u) << c.name << ": " << why;
+  }
+  // Checked as it comes: against the frames' size once there are frames.
+  ASSERT_TRUE(cameraInfoForFrames(good, false, cv::Size(), &k, &why)) << why;  // no frame yet
+  ASSERT_TRUE(cameraInfoForFrames(good, false, cv::Size(640, 480), &k, &why)) << why;
+  EXPECT_EQ(k.width, 640);
+  EXPECT_FALSE(cameraInfoForFrames(good, false, cv::Size(320, 240), &k, &why));
+  EXPECT_EQ(why, "camera_info size 640x480 differs from the images' 320x240");
+  sensor_msgs::CameraInfo nan_info = good;
+  nan_info.K[0] = nan;
+  EXPECT_FALSE(cameraInfoForFrames(nan_info, false, cv::Size(640, 480), &k, &why));
+  EXPECT_EQ(why, "camera_info K has a NaN or infinite entry");
 }
 
 // A calibrated camera's camera_info: K with D under each supported model; P

@@ -247,6 +247,8 @@ TEST_F(TrackBag, StampsRepeatingOrSlightlyBehindAreDroppedAJumpBackResets) {
   EXPECT_NE(rows[1 + 3][1], "invalid");  // frame 4 follows frame 2: no restart
 }
 
+// The frames use the field of view; every camera_info message is refused
+// (counted as live: summary.json camera_info_refused, one warning).
 TEST_F(TrackBag, FrameSizeOtherThanCameraInfoWarnsOnceAndUsesTheFieldOfView) {
   BagSpec spec;
   spec.info_width = 320;
@@ -254,14 +256,47 @@ TEST_F(TrackBag, FrameSizeOtherThanCameraInfoWarnsOnceAndUsesTheFieldOfView) {
   const std::string out = path("out_size");
   const ToolRun r = run("--bag " + quote(makeBag("size.bag", spec)) + " --out-dir " + quote(out));
   ASSERT_EQ(r.status, 0) << r.err;
-  ASSERT_EQ(r.errLines().size(), 1u) << r.err;
-  EXPECT_EQ(r.errLines()[0],
-            "track_bag: warning: image size 160x120 (first at frame 0) differs from "
-            "/cam/camera_info's 320x240; intrinsics from default_hfov_deg 60 deg for it");
+  EXPECT_EQ(r.errLines(),
+            (std::vector<std::string>{
+                "track_bag: warning: image size 160x120 (first at frame 0) differs from "
+                "/cam/camera_info's 320x240; intrinsics from default_hfov_deg 60 deg for it",
+                // Frame 0 is read before its camera_info (same bag time): all 20 refused.
+                "track_bag: warning: 20 camera_info message(s) refused: camera_info size 320x240 differs from the "
+                "images' 160x120 (first at stamp 1000.000000)"}));
   const nlohmann::json j = nlohmann::json::parse(readFile(out + "/summary.json"));
+  EXPECT_EQ(j["camera_info_refused"], 20);
   EXPECT_EQ(j["intrinsics"]["source"], "field_of_view");
   // fx = (w / 2) / tan(hfov / 2) = 80 / tan(30 deg); 1e-9: closed form.
   EXPECT_NEAR(j["intrinsics"]["fx"].get<double>(), 80.0 / std::tan(M_PI / 6), 1e-9);
+}
+
+// A camera_info mutated in mid-bag (found by fuzzing: it was skipped
+// silently) is refused as live: one warning per cause with its count,
+// summary.json camera_info_refused; the camera model stays the good one.
+TEST_F(TrackBag, RefusedCameraInfoIsWarnedOncePerCauseAndCounted) {
+  BagSpec spec;
+  spec.edit_info = [](int i, sensor_msgs::CameraInfo& m) {
+    if (i == 5) m.K[4] = std::numeric_limits<double>::quiet_NaN();
+    if (i == 8 || i == 9) m.K.fill(0.0);
+    if (i == 12) m.K[0] = 1e300;
+  };
+  const std::string out = path("out_info_refused");
+  const ToolRun r = run("--bag " + quote(makeBag("info_refused.bag", spec)) + " --out-dir " + quote(out));
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_EQ(r.errLines(),
+            (std::vector<std::string>{
+                "track_bag: warning: 1 camera_info message(s) refused: camera_info K has a NaN or infinite entry "
+                "(first at stamp 1000.166667)",
+                "track_bag: warning: 2 camera_info message(s) refused: camera_info K has no usable focal length "
+                "(first at stamp 1000.266667)",
+                "track_bag: warning: 1 camera_info message(s) refused: camera_info K focal length (fx 1e+300, fy 100) "
+                "is implausible for a 160x120 image (from 0.001 to 1000 times its size) (first at stamp "
+                "1000.400000)"}));
+  const nlohmann::json j = nlohmann::json::parse(readFile(out + "/summary.json"));
+  EXPECT_EQ(j["camera_info_refused"], 4);
+  EXPECT_EQ(j["intrinsics"]["source"], "camera_info");
+  EXPECT_EQ(j["intrinsics"]["fx"], 100);  // the good messages' K, kept
+  EXPECT_EQ(readCsv(out + "/camera_motion.csv").size(), 1u + spec.frames);  // no frame lost
 }
 
 TEST_F(TrackBag, NoCameraInfoNoTfAndNanImuAreNotedOnce) {

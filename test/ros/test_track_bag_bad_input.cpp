@@ -126,29 +126,31 @@ std::vector<BadCase> badCases() {
         return withBag(d, "two_imus.bag", s);
       },
       "has several sensor_msgs/Imu topics (/imu/data, /imu2): choose one with --imu-topic");
-  // Images.
-  add("encoding_32FC1", [](D d, D) { return withBag(d, "f32.bag", rawWithEncoding("32FC1")); },
-      "frame 3 (stamp 1000.100000) on /cam/image_raw: unsupported image encoding '32FC1'");
-  add("encoding_yuv422", [](D d, D) { return withBag(d, "yuv.bag", rawWithEncoding("yuv422")); },
-      "frame 3 (stamp 1000.100000) on /cam/image_raw: unsupported image encoding 'yuv422'");
-  add("corrupt_compressed_image", [](D d, D) {
+  // Images: a bag without one usable frame (a malformed frame among good
+  // ones is dropped, as live: TrackBagMalformedFrame below).
+  add("every_image_malformed", [](D d, D) {
+        BagSpec s;
+        s.edit_image = [](int, sensor_msgs::Image& m) { m.encoding = "32FC1"; };
+        return withBag(d, "all_bad.bag", s);
+      },
+      "no usable image on /cam/image_raw: all 20 frame(s) are malformed (first: frame 0 (stamp 1000.000000) on "
+      "/cam/image_raw: unsupported image encoding '32FC1' (supported: mono8, mono16, bgr8, rgb8, bgra8, rgba8))");
+  add("only_compressed_image_corrupt", [](D d, D) {
         BagSpec s;
         s.compressed = "png";
-        s.corrupt_frame = 2;
-        return withBag(d, "corrupt.bag", s);
+        s.frames = 1;
+        s.corrupt_frame = 0;
+        return withBag(d, "only_corrupt.bag", s);
       },
-      "frame 2 (stamp 1000.066667) on /cam/image_raw/compressed: cannot decode the compressed image (format 'mono8; png compressed mono8'");
-  add("image_data_shorter_than_claimed", [](D d, D) {
-        BagSpec s;
-        s.extra = [](rosbag::Bag& bag) {
-          sensor_msgs::Image m = rawImage(frameImage(0, 160, 120), "mono8", std_msgs::Header());
-          m.header.stamp = ros::Time(1001.0);
-          m.height = 240;  // claims twice the rows it has
-          bag.write("/cam/image_raw", ros::Time(1001.0), m);
-        };
-        return withBag(d, "short.bag", s);
+      "no usable image on /cam/image_raw/compressed: all 1 frame(s) are malformed (first: frame 0 (stamp "
+      "1000.000000) on /cam/image_raw/compressed: cannot decode the compressed image (format 'mono8; png compressed "
+      "mono8'");
+  add("init_at_a_malformed_frame", [](D d, D) {
+        std::ofstream(d + "/init_frame3.yaml") << "regions:\n  - {id: 1, stamp: 1000.1, box: [40, 30, 50, 40]}\n";
+        return withBag(d, "bad_frame3.bag", rawWithEncoding("32FC1"), "--init " + q(d + "/init_frame3.yaml"));
       },
-      "frame 20 (stamp 1001.000000) on /cam/image_raw: image data has 19200 bytes, step x height is 38400");
+      "init_frame3.yaml: regions (id 1): stamp 1000.100000 is not within half a frame of any cached frame (frame 3 "
+      "was dropped: unsupported image encoding '32FC1'");
   // INIT.yaml.
   add("init_missing_file", [](D d, D good) {
         return "--bag " + q(good) + " --init " + q(d + "/nope.yaml") + " --out-dir " + q(d + "/o");
@@ -259,6 +261,95 @@ std::vector<BadCase> badCases() {
 }
 
 INSTANTIATE_TEST_SUITE_P(Each, TrackBagBadInput, ::testing::ValuesIn(badCases()),
+                         [](const auto& info) { return std::string(info.param.name); });
+
+// --- a malformed frame among good ones: dropped, as live (issue 16) ----------
+// The run goes on (status 0); one warning per cause, with its count and the
+// first frame; summary.json frames_dropped.malformed_image; no row for the
+// frame. Before, the first such frame stopped the run (status 1).
+
+struct MalformedCase {
+  const char* name;
+  BagSpec spec;
+  int dropped;                        // frames dropped as malformed
+  std::vector<std::string> warnings;  // stderr, in order
+};
+
+void PrintTo(const MalformedCase& c, std::ostream* os) { *os << c.name; }
+
+class TrackBagMalformedFrame : public TrackBag, public ::testing::WithParamInterface<MalformedCase> {};
+
+TEST_P(TrackBagMalformedFrame, IsDroppedWarnedOncePerCauseAndCounted) {
+  const MalformedCase& c = GetParam();
+  const std::string out = path(std::string("out_malformed_") + c.name);
+  const ToolRun r = run("--bag " + quote(makeBag(std::string(c.name) + ".bag", c.spec)) + " --out-dir " + quote(out));
+  ASSERT_NE(r.status, 124) << "timed out (hang)";
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_EQ(r.errLines(), c.warnings);
+  const nlohmann::json j = nlohmann::json::parse(readFile(out + "/summary.json"));
+  const int frames = c.spec.frames + (c.spec.extra ? 1 : 0);
+  EXPECT_EQ(j["frames_dropped"]["malformed_image"], c.dropped);
+  EXPECT_EQ(j["frames"], frames - c.dropped);
+  EXPECT_EQ(readCsv(out + "/camera_motion.csv").size(), 1u + frames - c.dropped);
+  EXPECT_EQ(j["messages"].size(), c.warnings.size());
+}
+
+std::vector<MalformedCase> malformedCases() {
+  const std::string kFrame3 = "(first: frame 3 (stamp 1000.100000) on /cam/image_raw)";
+  std::vector<MalformedCase> v;
+  {
+    BagSpec s = rawWithEncoding("32FC1");
+    v.push_back({"encoding_32FC1", s, 1,
+                 {"track_bag: warning: 1 malformed frame(s) dropped: unsupported image encoding '32FC1' (supported: "
+                  "mono8, mono16, bgr8, rgb8, bgra8, rgba8) " + kFrame3}});
+  }
+  {
+    BagSpec s = rawWithEncoding("yuv422");
+    v.push_back({"encoding_yuv422", s, 1,
+                 {"track_bag: warning: 1 malformed frame(s) dropped: unsupported image encoding 'yuv422' (supported: "
+                  "mono8, mono16, bgr8, rgb8, bgra8, rgba8) " + kFrame3}});
+  }
+  {
+    BagSpec s;
+    s.compressed = "png";
+    s.corrupt_frame = 2;
+    v.push_back({"corrupt_compressed_image", s, 1,
+                 {"track_bag: warning: 1 malformed frame(s) dropped: cannot decode the compressed image (format "
+                  "'mono8; png compressed mono8', 13525 bytes) [libpng warning: ZZZZ: chunk data is too large;libpng "
+                  "error: PNG input buffer is incomplete] (first: frame 2 (stamp 1000.066667) on "
+                  "/cam/image_raw/compressed)"}});
+  }
+  {
+    BagSpec s;
+    s.extra = [](rosbag::Bag& bag) {
+      sensor_msgs::Image m = rawImage(frameImage(0, 160, 120), "mono8", std_msgs::Header());
+      m.header.stamp = ros::Time(1001.0);
+      m.height = 240;  // claims twice the rows it has
+      bag.write("/cam/image_raw", ros::Time(1001.0), m);
+    };
+    v.push_back({"image_data_shorter_than_claimed", s, 1,
+                 {"track_bag: warning: 1 malformed frame(s) dropped: image data has 19200 bytes, step x height is "
+                  "38400 (first: frame 20 (stamp 1001.000000) on /cam/image_raw)"}});
+  }
+  {
+    // Several causes, several frames each: one line per cause with its
+    // count, in the order they first came (the data cut at different
+    // lengths is one cause).
+    BagSpec s;
+    s.edit_image = [](int i, sensor_msgs::Image& m) {
+      if (i == 4 || i == 9 || i == 15) m.step = m.width - 1;             // a row is 160 bytes
+      if (i == 6 || i == 11) m.data.resize(m.data.size() / (i == 6 ? 2 : 3));  // truncated
+    };
+    v.push_back({"steps_and_truncations", s, 5,
+                 {"track_bag: warning: 3 malformed frame(s) dropped: image step 159 is shorter than a row (160 px of "
+                  "mono8 = 160 bytes) (first: frame 4 (stamp 1000.133333) on /cam/image_raw)",
+                  "track_bag: warning: 2 malformed frame(s) dropped: image data has 9600 bytes, step x height is "
+                  "19200 (first: frame 6 (stamp 1000.200000) on /cam/image_raw)"}});
+  }
+  return v;
+}
+
+INSTANTIATE_TEST_SUITE_P(Each, TrackBagMalformedFrame, ::testing::ValuesIn(malformedCases()),
                          [](const auto& info) { return std::string(info.param.name); });
 
 }  // namespace

@@ -60,6 +60,8 @@ struct BagSpec {
   int crc_warning_frame = -1;            // this frame's PNG has a tEXt chunk with a bad CRC
   int bad_frame = -1;                    // this frame's encoding is `bad_encoding`
   std::string bad_encoding;
+  std::function<void(int, sensor_msgs::Image&)> edit_image;       // raw frame i, before it is written
+  std::function<void(int, sensor_msgs::CameraInfo&)> edit_info;   // camera_info i, before it is written
 };
 
 // Seeded texture shifted 1 px left per frame: content at x in frame i-1 is at
@@ -146,6 +148,7 @@ void writeBag(const std::string& path, const BagSpec& s) {
       info.width = s.info_width ? s.info_width : s.width;
       info.height = s.info_height ? s.info_height : s.height;
       info.K = {100, 0, (info.width - 1) / 2.0, 0, 100, (info.height - 1) / 2.0, 0, 0, 1};
+      if (s.edit_info) s.edit_info(i, info);
       bag.write("/cam/camera_info", bag_time, info);
     }
     const cv::Mat gray = s.image ? s.image(i) : frameImage(i, s.width, s.height);
@@ -162,7 +165,9 @@ void writeBag(const std::string& path, const BagSpec& s) {
       bag.write(s.image_topic + "/compressed", bag_time, c);
     } else {
       const std::string enc = i == s.bad_frame ? s.bad_encoding : s.encoding;
-      bag.write(s.image_topic, bag_time, rawImage(gray, enc, h));
+      sensor_msgs::Image m = rawImage(gray, enc, h);
+      if (s.edit_image) s.edit_image(i, m);
+      bag.write(s.image_topic, bag_time, m);
     }
   }
   if (s.extra) s.extra(bag);

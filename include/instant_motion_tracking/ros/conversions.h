@@ -30,12 +30,23 @@ MotionData fromMsg(const instant_motion_tracking::MotionData& msg);
 // distortion_model and D (plumb_bob, rational_polynomial, equidistant; an
 // all-zero or empty D is no distortion under any name). Rectified images
 // (`image_rectified` true, parameter image_rectified): from P, D ignored.
-// False (with the reason) when K (or P) is not a usable pinhole (zero/NaN
-// focal length), there is no size, or D is non-zero with an unknown
-// distortion_model, too many coefficients or a NaN; the caller then warns
-// and falls back to the field-of-view default (CameraModel::forFrame).
+// False (with the reason) when K (or P) is not a usable pinhole (a NaN or
+// infinite entry, a zero or negative focal length, K's last row not 0 0 1, a
+// focal length outside 0.001 .. 1000 image sizes, the principal point over
+// an image size outside the image), there is no size or one over 65536 px,
+// or D is non-zero with an unknown distortion_model, too many coefficients
+// or a NaN; the caller then warns and falls back to the field-of-view
+// default (CameraModel::forFrame).
 bool fromCameraInfo(const sensor_msgs::CameraInfo& info, CameraModel* k, std::string* why,
                     bool image_rectified);
+// The one check of a camera_info as it comes, live (the nodelet that feeds
+// the session) and in track_bag: fromCameraInfo(), and a size that is the
+// frames' (`frames`: the session's image size, 0 x 0 before the first
+// frame). False with the reason for a refused one: the caller warns
+// (throttled, or once per cause offline), counts it, and keeps the camera
+// model it had.
+bool cameraInfoForFrames(const sensor_msgs::CameraInfo& info, bool image_rectified, const cv::Size& frames,
+                         CameraModel* k, std::string* why);
 // Camera model -> camera_info (K, D with its model name, P = K; plumb_bob with
 // a zero D without distortion).
 sensor_msgs::CameraInfo toCameraInfo(const CameraModel& k, const std_msgs::Header& header);

@@ -7,9 +7,10 @@
 // - Diagnostics through diagnostic_updater on /diagnostics, every
 //   ~diagnostic_period s of wall time (so a paused or looping bag on sim time
 //   does not stop them), named "<nodelet name>: <task>":
-//     input        rate (Hz, wall), frames, dropped inputs, resets, gaps; WARN
-//                  when subscribed without input, or on a reset, drop or gap
-//                  in the period
+//     input        rate (Hz, wall), frames, dropped inputs, resets, gaps,
+//                  camera_info refused; WARN when subscribed without input,
+//                  or on a reset, drop, gap or refused camera_info in the
+//                  period
 //     processing   callback time (ms, wall) and delay of the output after its
 //                  image stamp (ms, ROS time), mean and max over the period
 //     <items>      e.g. "regions": how many items are in each status, plus
@@ -55,6 +56,8 @@ class NodeletHealth {
   bool noteReset(const std::string& reason);
   // Counts a gap (frames missing for longer than the cache: tracks kept).
   void noteGap(const std::string& reason);
+  // Counts a camera_info refused (ros/conversions.h cameraInfoForFrames).
+  void noteCameraInfoRefused(const std::string& why);
   // The current items' statuses, one entry per item.
   void setItems(const std::vector<std::string>& statuses);
   // A key and value shown with the items (replacing the key's last value).
@@ -65,9 +68,9 @@ class NodeletHealth {
  private:
   struct Window {
     ros::WallTime begin, end;
-    int frames = 0, dropped = 0, resets = 0, gaps = 0;
+    int frames = 0, dropped = 0, resets = 0, gaps = 0, info_refused = 0;
     double processing_sum = 0, processing_max = 0, delay_sum = 0, delay_max = 0;
-    std::string drop_reason, reset_reason, gap_reason;
+    std::string drop_reason, reset_reason, gap_reason, info_reason;
   };
   void report();
   void inputStatus(diagnostic_updater::DiagnosticStatusWrapper& s);
@@ -83,7 +86,7 @@ class NodeletHealth {
   std::map<std::string, std::string> notes_;
   bool subscribed_ = false;
   Window window_, reported_;  // the period being filled, the one last reported
-  uint64_t frames_ = 0, dropped_ = 0, resets_ = 0, gaps_ = 0;
+  uint64_t frames_ = 0, dropped_ = 0, resets_ = 0, gaps_ = 0, info_refused_ = 0;
   ros::WallTime last_input_, last_reset_log_;
 };
 

@@ -31,7 +31,10 @@ imt_build track_bag make_scene
 bin="$IMT_BUILD_DIR/devel/lib/instant_motion_tracking"
 # A track_bag without the sanitizers would pass every case unseen. (The
 # sanitizer build names its tools *_sanitized: see CMakeLists.txt.)
-ldd "$bin/track_bag_sanitized" | grep -q libasan || { imt_log "$bin/track_bag_sanitized is not built with ASan"; exit 1; }
+# (ldd's whole output first: under pipefail, 'ldd | grep -q' fails whenever
+# grep stops reading before ldd has written its last line, SIGPIPE.)
+libs=$(ldd "$bin/track_bag_sanitized")
+grep -q libasan <<<"$libs" || { imt_log "$bin/track_bag_sanitized is not built with ASan"; exit 1; }
 work="$IMT_BUILD_DIR/fuzz"
 rm -rf "$work"
 mkdir -p "$work/seeds" "$work/failed"

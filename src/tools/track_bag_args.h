@@ -47,7 +47,9 @@ options:
                             does (config/default.yaml is this output) and exit
   -h, --help                this text
 
-exit status: 0 success, 1 bad input (named in one line on stderr), 2 bad options
+exit status: 0 success, 1 bad input (named in one line on stderr), 2 bad options.
+A malformed frame or a refused camera_info in a usable bag is dropped, as live:
+the run goes on, one warning per cause after it, counted in summary.json.
 )";
 
 struct Args {

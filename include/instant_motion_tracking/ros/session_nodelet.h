@@ -58,7 +58,9 @@ class SessionNodelet : public nodelet::Nodelet {
   // Re-checks whether this nodelet wants frames, then every input.
   void updateSubscription();
   // camera_info into the session, while this nodelet feeds it frames (one
-  // subscriber per manager, not one per nodelet).
+  // subscriber per manager, not one per nodelet). A refused one
+  // (cameraInfoForFrames, ros/conversions.h) is warned about, throttled, and
+  // counted in this nodelet's input diagnostics.
   void subscribeCameraInfo(bool on);
   // Whether a request refused for want of frames should keep the inputs up.
   void awaitFrames(bool refused_without_frames) { awaiting_frames_ = refused_without_frames; }

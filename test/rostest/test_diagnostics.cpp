@@ -99,12 +99,14 @@ TEST(Diagnostics, RatesLatencyAndItemsByStatus) {
     ASSERT_TRUE(diag.has(name)) << name;
   }
   // Input rates: the bag's 30 fps at rate 1. A period of 1 s wall time counts
-  // 29-31 frames; 20-40 allows a frame batch delayed by a loaded machine.
+  // 29-31 frames; a frame batch delayed by a loaded machine lands in the next
+  // period: 41.2 Hz was measured with test_core running beside it (ctest -j2,
+  // 2026-11-26). 20-60 still catches a rate in the wrong unit or never counted.
   for (const char* nodelet : {"motion_analysis", "region_tracker", "planar_targets"}) {
     const std::string name = std::string(nodelet) + ": input";
     const double rate = diag.number(name, "rate (Hz)");
     EXPECT_GE(rate, 20.0) << name;
-    EXPECT_LE(rate, 40.0) << name;
+    EXPECT_LE(rate, 60.0) << name;
     EXPECT_EQ(diag.latest[name].level, DiagnosticStatus::OK) << name << ": " << diag.latest[name].message;
     EXPECT_EQ(diag.value(name, "topic"), std::string(nodelet) == "motion_analysis" ? "/camera/image_raw" : "/motion_data");
     // The time rules' outcomes (README), and camera_info refused: none on a

@@ -42,13 +42,13 @@ out=$(cd "$out" && pwd)  # roslaunch needs an absolute bag path
 fail() { echo "demo.sh: $*" >&2; exit 1; }
 
 imt_log "rendering the '$preset' scene ($duration s) into $out/$preset.bag"
-rosrun instant_motion_tracking make_scene --preset "$preset" --duration "$duration" --seed 1 --quiet \
+"$(imt_tool make_scene)" --preset "$preset" --duration "$duration" --seed 1 --quiet \
   --out "$out/$preset.bag" --truth "$out/${preset}_truth.json" --init "$out/${preset}_init.yaml" ||
   fail "make_scene failed"
 
 if [ "$offline" = true ]; then
   imt_log "running track_bag on it (offline, scored)"
-  rosrun instant_motion_tracking track_bag --bag "$out/$preset.bag" --init "$out/${preset}_init.yaml" \
+  "$(imt_tool track_bag)" --bag "$out/$preset.bag" --init "$out/${preset}_init.yaml" \
     --out-dir "$out/tracks" --out-bag "$out/${preset}_tracked.bag" --quiet || fail "track_bag failed"
   echo
   echo "Offline (track_bag) accuracy against the scene's ground truth (scripts/evaluate.py):"

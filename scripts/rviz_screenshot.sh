@@ -30,7 +30,7 @@ if [ -z "${inside:-}" ]; then
   export IMT_SHOT_WORK
   trap 'rm -rf "$IMT_SHOT_WORK"' EXIT
   imt_log "rendering the cards scene"
-  rosrun instant_motion_tracking make_scene --preset cards --duration 20 --seed 1 --quiet \
+  "$(imt_tool make_scene)" --preset cards --duration 20 --seed 1 --quiet \
     --out "$IMT_SHOT_WORK/cards.bag" --truth "$IMT_SHOT_WORK/truth.json"
   imt_log "rviz under Xvfb (1280x800)"
   xvfb-run -a -s "-screen 0 1280x800x24" "$0" --inside-xvfb --out "$IMT_SHOT_WORK/screen.png"

@@ -69,6 +69,11 @@ imt_build() {
   imt_source_workspace
 }
 
+# imt_tool NAME: the path of this build's tool NAME (make_scene, track_bag).
+# Not `rosrun`: it searches the whole package folder and asks which one when
+# another build folder inside it (a second _build*) has its own.
+imt_tool() { printf '%s/devel/lib/instant_motion_tracking/%s' "$IMT_BUILD_DIR" "$1"; }
+
 # Sources the build's devel/setup.bash. The catkin setup scripts read unset
 # variables (ROS_DISTRO): not under set -u.
 imt_source_workspace() {

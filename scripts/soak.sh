@@ -37,7 +37,7 @@ out=$(cd "$out" && pwd)
 fail() { echo "soak.sh: $*" >&2; exit 1; }
 
 imt_log "rendering the cards scene (15 s) into $out/cards.bag"
-rosrun instant_motion_tracking make_scene --preset cards --duration 15 --seed 1 --quiet \
+"$(imt_tool make_scene)" --preset cards --duration 15 --seed 1 --quiet \
   --out "$out/cards.bag" --truth "$out/cards_truth.json" --init "$out/cards_init.yaml" ||
   fail "make_scene failed"
 

@@ -23,6 +23,7 @@
 #endif
 
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <functional>
@@ -104,12 +105,12 @@ Row runOurs(const imt::test::BoxSequence& seq, const std::vector<cv::Mat>& gray,
     for (const imt::FrameResult& r : session.takeResults())
       for (const imt::RegionState& s : r.regions)
         if (s.id == id) {
-          *box = s.box;
+          *box = s.extent();
           if (g_trace)
-            std::fprintf(stderr, "%s %d iou %.2f %s app %.2f conf %.2f inliers %zu outliers %zu support %.0f box %.0f %.0f %.0f %.0f truth %.0f %.0f %.0f %.0f %s %s\n",
-                         seq.name().c_str(), f, imt::test::iouClipped(s.box, seq.box(f), gray[0].size()),
+            std::fprintf(stderr, "%s %d turn %.1f iou %.2f %s app %.2f conf %.2f inliers %zu outliers %zu support %.0f box %.0f %.0f %.0f %.0f truth %.0f %.0f %.0f %.0f %s %s\n",
+                         seq.name().c_str(), f, s.angle * 180 / M_PI, imt::test::iouClipped(*box, seq.box(f), gray[0].size()),
                          imt::regionStatusName(s.status), s.appearance_score, s.confidence, s.inliers.size(), s.outliers.size(), s.support,
-                         s.box.x, s.box.y, s.box.width, s.box.height, seq.box(f).x, seq.box(f).y, seq.box(f).width,
+                         box->x, box->y, box->width, box->height, seq.box(f).x, seq.box(f).y, seq.box(f).width,
                          seq.box(f).height, imt::motionModelName(r.motion.camera.model), s.reason.c_str());
           return s.status != imt::RegionStatus::kLost;
         }

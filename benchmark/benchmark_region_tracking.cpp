@@ -148,7 +148,7 @@ int main(int argc, char** argv) {
       total += std::chrono::duration<double>(Clock::now() - t0).count();
       for (const auto& s : states)
         if (truth_id.count(s.id))
-          acc.add(s.box, truth[k], truth_id[s.id], size, s.status == imt::RegionStatus::kLost);
+          acc.add(s.extent(), truth[k], truth_id[s.id], size, s.status == imt::RegionStatus::kLost);
     }
     if (count == 1 && !warmed_up) {  // the first run warms caches and allocators
       warmed_up = true;

@@ -52,7 +52,7 @@ void drawAxes(cv::Mat* out, const CameraModel& k, const Eigen::Isometry3d& T, do
 }
 
 void drawRegion(cv::Mat* out, const RegionState& s) {
-  const cv::Rect2d& b = s.box;
+  const cv::Rect2d b = s.extent();
   if (s.status == RegionStatus::kLost || !(std::isfinite(b.x) && std::isfinite(b.y) &&
                                            std::isfinite(b.width) && std::isfinite(b.height)))
     return;

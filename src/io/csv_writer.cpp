@@ -155,7 +155,8 @@ CsvRow regionRow(const RegionState& s) {
   if (s.status == RegionStatus::kLost) {
     row.empty().empty().empty().empty();
   } else {
-    row.number(s.box.x).number(s.box.y).number(s.box.width).number(s.box.height);
+    const cv::Rect2d b = s.extent();
+    row.number(b.x).number(b.y).number(b.width).number(b.height);
   }
   return row.text(regionStatusName(s.status)).number(s.confidence);
 }

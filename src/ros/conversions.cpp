@@ -288,10 +288,11 @@ instant_motion_tracking::TrackedRegion toMsg(const RegionState& s) {
   instant_motion_tracking::TrackedRegion r;
   r.id = s.id;
   const bool lost = s.status == RegionStatus::kLost;
-  r.x = lost ? NAN : s.box.x;
-  r.y = lost ? NAN : s.box.y;
-  r.width = lost ? NAN : s.box.width;
-  r.height = lost ? NAN : s.box.height;
+  const cv::Rect2d b = s.extent();  // the box around the region as seen (turned)
+  r.x = lost ? NAN : b.x;
+  r.y = lost ? NAN : b.y;
+  r.width = lost ? NAN : b.width;
+  r.height = lost ? NAN : b.height;
   r.status = regionStatusName(s.status);
   r.confidence = s.confidence;
   r.vx = s.velocity.x();
@@ -411,7 +412,7 @@ RegionState fromMsg(const instant_motion_tracking::TrackedRegion& m, double stam
   RegionState s;
   s.id = m.id;
   s.stamp = stamp;
-  s.box = cv::Rect2d(m.x, m.y, m.width, m.height);
+  s.box = cv::Rect2d(m.x, m.y, m.width, m.height);  // the extent it was sent with, read as unturned
   s.status = statusFromName(m.status, regionStatusName,
                             {RegionStatus::kTracked, RegionStatus::kFeatureless, RegionStatus::kOutOfView,
                              RegionStatus::kLost},

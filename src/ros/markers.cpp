@@ -43,7 +43,7 @@ visualization_msgs::MarkerArray regionMarkers(const std::vector<RegionState>& st
     box.scale.x = 0.004;
     box.lifetime = ros::Duration(0.5);  // no DELETEALL: other nodelets publish markers too
     box.color = colour(s.status);
-    const cv::Rect2d& b = s.box;
+    const cv::Rect2d b = s.extent();
     for (const auto& [u, v] : {std::pair<double, double>{b.x, b.y}, {b.br().x, b.y}, {b.br().x, b.br().y},
                                {b.x, b.br().y}, {b.x, b.y}})
       box.points.push_back(backProject(u, v, k));

@@ -72,6 +72,63 @@ TEST(RegionAppearance, FindsAShiftedPatchAndRefusesAFlatOne) {
   EXPECT_FALSE(RegionAppearance::create(img, cv::Rect2d(-500, 0, 60, 40), 40, &flat));
 }
 
+// `image` turned by `degrees` (x toward y, clockwise as seen) about `centre`.
+cv::Mat turned(const cv::Mat& image, cv::Point2d centre, double degrees) {
+  cv::Mat out;
+  cv::warpAffine(image, out, cv::getRotationMatrix2D(cv::Point2f(centre), -degrees, 1.0), image.size(),
+                 cv::INTER_LINEAR, cv::BORDER_REFLECT);
+  return out;
+}
+
+// A region that turned in the image is matched along its turned axes: the
+// patch turned by 20 degrees (and moved) is found at that turn as well as an
+// unturned one is, where matching it unturned scores poorly; the template
+// blended at the turn keeps its look.
+TEST(RegionAppearance, FindsATurnedPatchAtItsTurn) {
+  const cv::Mat img = texture();
+  const cv::Rect2d box(120, 90, 60, 40);
+  const cv::Point2d c(150, 110);
+  RegionAppearance a;
+  ASSERT_TRUE(RegionAppearance::create(img, box, 40, &a));
+  const double angle = 20 * M_PI / 180;
+  const cv::Mat moved = shifted(turned(img, c, 20), 5, -4);
+  const AppearanceMatch m = a.match(moved, box, 0.35, RegionAppearance::trackedScales(), angle);
+  ASSERT_TRUE(m.found);
+  // As the unturned shift's bound (one template px is 1.5 image px here).
+  EXPECT_LT(centreError(m.box, box + cv::Point2d(5, -4)), 1.5);
+  // The size of the unturned box, not of its turned extent.
+  EXPECT_NEAR(m.box.width, box.width, 0.06 * box.width);
+  // Above reacquire_score at its turn; the unturned template does not
+  // recognise it (the texture decorrelates within a few px at its corners).
+  EXPECT_GT(m.score, 0.9);
+  const AppearanceMatch flat = a.match(moved, box, 0.35);
+  EXPECT_LT(flat.score, 0.75);
+  RegionAppearance b = a;
+  b.blend(moved, m.box, 0.5, angle);
+  const AppearanceMatch again = b.match(moved, m.box, 0.1, {1.0}, angle);
+  EXPECT_GT(again.score, 0.95);
+  std::printf("patch turned 20 deg: score %.3f at its turn, %.3f unturned, centre error %.2f px\n", m.score,
+              flat.score, centreError(m.box, box + cv::Point2d(5, -4)));
+}
+
+// The box reported for a turned region: its own box up to a turn of a few
+// degrees, then the extent of the turned box, between that of the rectangle
+// and of the ellipse inscribed in it.
+TEST(RegionState, ExtentOfATurnedRegion) {
+  RegionState s = RegionState::start(1, cv::Rect2d(100, 50, 100, 50), 0);
+  EXPECT_EQ(s.extent(), s.box);
+  s.angle = 0.01;  // 0.6 deg: a tenth of kReportedTurn, its cube's share (1%)
+  EXPECT_NEAR(s.extent().width, 100, 0.01);
+  s.angle = M_PI / 2;  // a quarter turn: width and height swap (to 1%, the soft threshold's share)
+  EXPECT_NEAR(s.extent().width, 50, 0.5);
+  EXPECT_NEAR(s.extent().height, 100, 1.0);
+  EXPECT_NEAR(s.extent().x + s.extent().width / 2, 150, 1e-9);  // about the box's centre
+  s.angle = -M_PI / 4;  // 45 deg either way (44.3 deg reported): rectangle 106 x 106, ellipse 79 x 79
+  const double rect = 150 / std::sqrt(2.0), ellipse = std::sqrt((100.0 * 100 + 50 * 50) / 2);
+  EXPECT_NEAR(s.extent().width, 0.5 * (rect + ellipse), 0.02 * rect);
+  EXPECT_NEAR(s.extent().height, 0.5 * (rect + ellipse), 0.02 * rect);
+}
+
 // A lost region's size changed while it was unseen: the whole-frame search
 // (coarse to fine) tries the wider scale range, and finds the patch grown by
 // 1.2 and moved across the frame, where its own size alone matches poorly.

@@ -36,7 +36,7 @@ TEST(RegionManager, RegionAddedInThePastCatchesUpAndSeeksBothWays) {
   ASSERT_EQ(now.size(), 1u);
   EXPECT_DOUBLE_EQ(now[0].stamp, md[59].stamp);
   // Tracked forward to the present (measured IoU ~0.95; 0.85 is the bar).
-  EXPECT_GT(iou(now[0].box, w.box(0, 59)), 0.85);
+  EXPECT_GT(iou(now[0].extent(), w.box(0, 59)), 0.85);
   // Backwards, down to the first cached frame, and forwards again.
   double sum = 0;
   for (int k = 0; k < 60; ++k) {
@@ -44,7 +44,7 @@ TEST(RegionManager, RegionAddedInThePastCatchesUpAndSeeksBothWays) {
     ASSERT_TRUE(m.statesAt(md[k].stamp, {}, &s, &err)) << err;
     ASSERT_EQ(s.size(), 1u);
     EXPECT_DOUBLE_EQ(s[0].stamp, md[k].stamp);
-    sum += iou(s[0].box, w.box(0, k));
+    sum += iou(s[0].extent(), w.box(0, k));
   }
   EXPECT_GT(sum / 60, 0.85);
 }
@@ -61,7 +61,7 @@ TEST(RegionManager, LiveRegionsAdvanceWithEachFrame) {
   for (int k = 1; k < 40; ++k) {
     const auto s = m.update(md[k]);
     ASSERT_EQ(s.size(), 1u);
-    EXPECT_GT(iou(s[0].box, w.box(0, k)), 0.85) << "frame " << k;
+    EXPECT_GT(iou(s[0].extent(), w.box(0, k)), 0.85) << "frame " << k;
   }
 }
 

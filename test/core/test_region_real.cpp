@@ -50,7 +50,7 @@ TEST_P(RegionReal, FirstFrameBoxIsFollowed) {
     ASSERT_EQ(results.size(), 1u);
     ASSERT_EQ(results[0].regions.size(), 1u);
     const RegionState& s = results[0].regions[0];
-    if (seq->scored(f)) score.add(s.status != RegionStatus::kLost, s.box, seq->box(f), size);
+    if (seq->scored(f)) score.add(s.status != RegionStatus::kLost, s.extent(), seq->box(f), size);
   }
   ASSERT_GT(score.frames(), 20);
   std::printf("%s: success AUC %.3f, mean IoU %.3f, P@20px %.3f over %d frames\n", c.sequence, score.successAuc(),
@@ -58,18 +58,19 @@ TEST_P(RegionReal, FirstFrameBoxIsFollowed) {
   EXPECT_GE(score.successAuc(), c.min_auc);
 }
 
-// Measured success AUC (2026-11-24, last at the zoom taken as far as a
-// region is background): car1 0.761, boat1 0.743, Human3 0.118, V25_2 0.707,
-// V24_7 0.739 (OpenCV CSRT: 0.740, 0.768, 0.178, 0.682, 0.661;
+// Measured success AUC (2026-11-26, regions turning with the camera and
+// their look, scored by their reported extent): car1 0.754, boat1 0.755,
+// Human3 0.126, V25_2 0.846, V24_7 0.867 (before they turned: 0.761, 0.743,
+// 0.118, 0.707, 0.739; OpenCV CSRT: 0.740, 0.768, 0.178, 0.682, 0.661;
 // benchmark_region_real). Floors about 0.05 under ours (Human3: 0.05, under
 // half its figure): a change that loses a target on real video shows here.
 // car1 is sensitive to the last bit of the pixels (from libjpeg's own gray
 // decode instead of cvtColor it scored 0.602 before that change; its 8
 // nudged starts now span 0.720..0.771), so its floor is 0.65.
 INSTANTIATE_TEST_SUITE_P(Sequences, RegionReal,
-                         ::testing::Values(RealCase{"vot2015_car1", 0.65}, RealCase{"uav123_10fps_boat1", 0.69},
+                         ::testing::Values(RealCase{"vot2015_car1", 0.65}, RealCase{"uav123_10fps_boat1", 0.70},
                                            RealCase{"otb_human3_first199", 0.07},
-                                           RealCase{"pot210_V25_2", 0.65}, RealCase{"pot210_V24_7", 0.69}),
+                                           RealCase{"pot210_V25_2", 0.79}, RealCase{"pot210_V24_7", 0.81}),
                          [](const ::testing::TestParamInfo<RealCase>& info) {
                            std::string n = info.param.sequence;
                            for (char& ch : n)

@@ -5,10 +5,13 @@
 #include "instant_motion_tracking/core/motion/motion_analysis.h"
 #include "../box_metrics.h"
 #include "instant_motion_tracking/core/region/region_manager.h"
+#include "instant_motion_tracking/core/tracking_session.h"
 #include "instant_motion_tracking/sim/scene.h"
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <map>
 
@@ -53,7 +56,7 @@ double meanRegionIou(RegionManager& m, const std::vector<FrameTruth>& truth, cv:
     EXPECT_TRUE(m.statesAt(f.stamp, {id}, &s, &err)) << err;
     const FrameTruth::Region* r = region(f, id);
     if (!r || r->visible_fraction < 0.5 || s.empty()) continue;
-    sum += s[0].status == RegionStatus::kLost ? 0.0 : iouClipped(s[0].box, r->box, size);
+    sum += s[0].status == RegionStatus::kLost ? 0.0 : iouClipped(s[0].extent(), r->box, size);
     ++n;
   }
   if (scored) *scored = n;
@@ -241,6 +244,81 @@ TEST(CardsSceneFewFeatures, CardAlongTheEdgeKeepsItsScale) {
     std::printf("seed %u: card 3 mean IoU %.3f over %d frames\n", seed, iou, n);
     EXPECT_GE(iou, kMinIou) << "seed " << seed;
   }
+}
+
+// A camera that rolls turns everything in the image: the static patch on the
+// wall (4 of `cards`, the cards moving in front) under the `rotate`
+// trajectory at 1.5 times its amplitude (roll +-18 deg, yaw +-22, pitch
+// +-15), tracked by the whole session offline (the look included). The
+// region's turn follows the patch's true turn in the image (its projected x
+// axis against the frame it was given at), and the extent it reports fits
+// the truth box as well as the bar asks (the box given at start is
+// already the extent of a patch the roll had turned, so the unturned box
+// fits about as well here: measured 0.876 against 0.883; the turn pays where
+// a target turns far, docs/benchmarks.md).
+TEST(RollingCamera, WallPatchTurnsWithTheCamera) {
+  auto opt = SceneOptions::fromPreset("cards");
+  ASSERT_TRUE(opt);
+  opt->trajectory = "rotate";
+  opt->trajectory_amplitude = 1.5;
+  opt->duration = 6.0;
+  opt->seed = 3;
+  std::string err;
+  const auto scene = SceneGenerator::create(*opt, &err);
+  ASSERT_TRUE(scene) << err;
+  constexpr uint32_t kPatch = 4;
+  size_t plane = 0;
+  while (plane < scene->options().planes.size() && scene->options().planes[plane].id != kPatch) ++plane;
+  ASSERT_LT(plane, scene->options().planes.size());
+  // The patch's turn in the image at frame k: its x axis projected.
+  auto trueAngle = [&](int k) {
+    const double t = k / opt->fps;
+    const Eigen::Isometry3d T = scene->T_world_plane(plane, t);
+    const auto a = scene->project(T * Eigen::Vector3d(0, 0, 0), t), b = scene->project(T * Eigen::Vector3d(0.1, 0, 0), t);
+    return a && b ? std::atan2(b->y - a->y, b->x - a->x) : NAN;
+  };
+  std::vector<FrameTruth> truth;
+  PipelineOptions po;
+  po.cache_seconds = opt->duration + 1;
+  TrackingSession session(po, TrackingSession::Mode::kOffline);
+  session.setCameraInfo(scene->intrinsics());
+  for (int k = 0; k < scene->frameCount(); ++k) {
+    session.analyze(scene->renderFrame(k), scene->frameStamp(k));
+    truth.push_back(scene->frameTruth(k));
+  }
+  const int start = firstWholeFrame(truth, kPatch);
+  ASSERT_GE(start, 0);
+  uint32_t id = 0;
+  ASSERT_TRUE(session.addRegion(kPatch, truth[start].stamp, region(truth[start], kPatch)->box, &id, &err)) << err;
+  const cv::Size size(opt->width, opt->height);
+  double iou_extent = 0, iou_box = 0, max_roll = 0;
+  std::vector<double> turn_errors;
+  for (int k = 0; k < scene->frameCount(); ++k) {
+    const FrameTruth::Region* r = region(truth[k], kPatch);
+    std::vector<RegionState> states;
+    ASSERT_TRUE(session.seekRegions(truth[k].stamp, {id}, &states, &err)) << err;
+    if (!r || r->visible_fraction < 0.999 || r->occluded_fraction > 0.001 || states.empty() ||
+        states[0].status == RegionStatus::kLost)
+      continue;
+    const double roll = std::remainder(trueAngle(k) - trueAngle(start), 2 * M_PI);
+    max_roll = std::max(max_roll, std::abs(roll));
+    turn_errors.push_back(std::abs(std::remainder(states[0].angle - roll, 2 * M_PI)) * 180 / M_PI);
+    iou_extent += iouClipped(states[0].extent(), r->box, size);
+    iou_box += iouClipped(states[0].box, r->box, size);
+  }
+  const size_t n = turn_errors.size();
+  ASSERT_GT(n, 60u);
+  std::sort(turn_errors.begin(), turn_errors.end());
+  const double median = turn_errors[n / 2], p90 = turn_errors[n * 9 / 10];
+  std::printf("rolling camera (roll up to %.1f deg): turn error median %.2f deg, p90 %.2f deg over %zu frames; "
+              "mean IoU of the extent %.3f, of the unturned box %.3f\n",
+              max_roll * 180 / M_PI, median, p90, n, iou_extent / n, iou_box / n);
+  EXPECT_GT(max_roll * 180 / M_PI, 15.0);  // the scene does turn the patch
+  // Measured 0.79 / 1.15 deg (the camera model's turn at the patch, checked
+  // by its look a 3-degree step either way): bars with a third in hand.
+  EXPECT_LT(median, 1.2);
+  EXPECT_LT(p90, 1.8);
+  EXPECT_GE(iou_extent / n, kMinIou);
 }
 
 }  // namespace

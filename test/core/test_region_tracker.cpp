@@ -46,12 +46,12 @@ TEST(RegionTracker, MovingCardInFrontOfAMovingBackground) {
   double sum = 0;
   for (int k = 0; k < 60; ++k) {
     EXPECT_EQ(tr.states[k].status, RegionStatus::kTracked) << "frame " << k;
-    sum += iou(tr.states[k].box, w.box(0, k));
+    sum += iou(tr.states[k].extent(), w.box(0, k));
   }
   // Measured ~0.97; 0.9 leaves room for the synthetic 0.1 px noise and the
   // axis-aligned box of a slightly rotating card.
   EXPECT_GT(sum / 60, 0.9);
-  EXPECT_GT(iou(tr.states.back().box, w.box(0, 59)), 0.85) << "drifted by the end";
+  EXPECT_GT(iou(tr.states.back().extent(), w.box(0, 59)), 0.85) << "drifted by the end";
   EXPECT_GT(tr.states.back().confidence, 0.9);
 }
 
@@ -62,7 +62,7 @@ TEST(RegionTracker, StaticWallPatchFollowsTheCamera) {
   const Track tr = trackForward(md, w.backgroundBox(world_box, 0), 0);
   double sum = 0;
   for (int k = 0; k < 60; ++k) {
-    sum += iou(tr.states[k].box, w.backgroundBox(world_box, k));
+    sum += iou(tr.states[k].extent(), w.backgroundBox(world_box, k));
   }
   EXPECT_GT(sum / 60, 0.9);  // the background fit is exact up to 0.1 px noise
 }
@@ -80,7 +80,7 @@ TEST(RegionTracker, FeaturelessPatchMovesWithTheCamera) {
   double sum = 0;
   for (int k = 1; k < 60; ++k) {
     EXPECT_EQ(tr.states[k].status, RegionStatus::kFeatureless) << "frame " << k;
-    sum += iou(tr.states[k].box, w.backgroundBox(world_box, k));
+    sum += iou(tr.states[k].extent(), w.backgroundBox(world_box, k));
   }
   // Moved by the exact camera homography; the ground truth is the bounding
   // box of the patch as it rolls (3.4 degrees by the end) while the tracked
@@ -103,7 +103,7 @@ TEST(RegionTracker, BackwardTrackingFromTheLastFrame) {
   for (int k = 59; k > 0; --k) {
     s = t.step(s, md[k], Direction::kBackward, md[k - 1].stamp);
     EXPECT_DOUBLE_EQ(s.stamp, md[k - 1].stamp);
-    sum += iou(s.box, w.box(0, k - 1));
+    sum += iou(s.extent(), w.box(0, k - 1));
   }
   EXPECT_GT(sum / 59, 0.9);
 }
@@ -125,10 +125,10 @@ TEST(RegionTracker, OcclusionByAnotherCardDoesNotDragTheRegion) {
   const Track tr = trackForward(md, w.box(0, 0), 0);
   double sum = 0;
   for (int k = 0; k < 75; ++k) {
-    sum += iou(tr.states[k].box, w.box(0, k));
+    sum += iou(tr.states[k].extent(), w.box(0, k));
   }
   EXPECT_GT(sum / 75, 0.8);
-  EXPECT_GT(iou(tr.states.back().box, w.box(0, 74)), 0.75) << "not recovered after the occluder passed";
+  EXPECT_GT(iou(tr.states.back().extent(), w.box(0, 74)), 0.75) << "not recovered after the occluder passed";
 }
 
 // Frames dropped upstream (a loaded graph): the steps span 2 to 6 frames.
@@ -150,7 +150,7 @@ TEST(RegionTracker, DroppedFramesKeepTheTrackAndThePerFrameVelocity) {
   double sum = 0;
   for (size_t i = 0; i < frames.size(); ++i) {
     EXPECT_EQ(tr.states[i].status, RegionStatus::kTracked) << "frame " << frames[i];
-    sum += iou(tr.states[i].box, w.box(0, frames[i]));
+    sum += iou(tr.states[i].extent(), w.box(0, frames[i]));
     // The box centre's true motion per frame (camera pan and zoom + the
     // card's 8 px); without the interval scaling it reads 3x-7x that after
     // each gap. 0.5 px: the velocity is smoothed over frames (velocity_blend)
@@ -161,7 +161,7 @@ TEST(RegionTracker, DroppedFramesKeepTheTrackAndThePerFrameVelocity) {
   }
   // Same bar as without gaps (measured ~0.97).
   EXPECT_GT(sum / frames.size(), 0.9);
-  EXPECT_GT(iou(tr.states.back().box, w.box(0, 59)), 0.85);
+  EXPECT_GT(iou(tr.states.back().extent(), w.box(0, 59)), 0.85);
 }
 
 // A card that vanishes under a featureless occluder (no features at all
@@ -188,10 +188,10 @@ TEST(RegionTracker, CardWithNoFeaturesLeftCoastsOnItsOwnMotion) {
     // Coasting: still "tracked" (the occlusion path), within a few px of the
     // truth (constant velocity, the decay only reaches the confidence).
     EXPECT_EQ(tr.states[k].status, RegionStatus::kTracked) << "frame " << k;
-    EXPECT_GT(iou(tr.states[k].box, w.box(0, k)), 0.85) << "frame " << k;
+    EXPECT_GT(iou(tr.states[k].extent(), w.box(0, k)), 0.85) << "frame " << k;
   }
   double sum = 0;
-  for (int k = 28; k < 50; ++k) sum += iou(tr.states[k].box, w.box(0, k));
+  for (int k = 28; k < 50; ++k) sum += iou(tr.states[k].extent(), w.box(0, k));
   EXPECT_GT(sum / 22, 0.9) << "not picked up again behind the cover";
 }
 
@@ -261,7 +261,7 @@ TEST(RegionTracker, OutOfViewAndBack) {
   }
   EXPECT_TRUE(was_out);
   EXPECT_EQ(tr.states.back().status, RegionStatus::kTracked);
-  EXPECT_GT(iou(tr.states.back().box, w.backgroundBox(world_box, 79)), 0.9);
+  EXPECT_GT(iou(tr.states.back().extent(), w.backgroundBox(world_box, 79)), 0.9);
 }
 
 TEST(RegionTracker, InvalidCameraModelAndEmptyMotionDataDoNotBreakIt) {

@@ -494,7 +494,7 @@ TEST(TrackingSession, RepeatedAndSlightlyLateStampsAreDroppedNotResets) {
             if (st.id != id || fr.motion.stamp != t) continue;
             for (const auto& reg : r.scene->frameTruth(k).regions)
               if (reg.id == 1 && reg.visible_fraction > 0.5) {
-                sum += st.status == RegionStatus::kLost ? 0 : test::iou(st.box, reg.box);
+                sum += st.status == RegionStatus::kLost ? 0 : test::iou(st.extent(), reg.box);
                 ++n;
               }
           }
@@ -552,7 +552,7 @@ TEST(TrackingSession, RepeatedAndSlightlyLateStampsAreDroppedNotResets) {
       for (const RegionState& st : fr.regions)
         for (const auto& reg : r.scene->frameTruth(k).regions)
           if (st.id == id && reg.id == 1 && reg.visible_fraction > 0.5) {
-            sum += st.status == RegionStatus::kLost ? 0 : test::iou(st.box, reg.box);
+            sum += st.status == RegionStatus::kLost ? 0 : test::iou(st.extent(), reg.box);
             ++n;
           }
     }

@@ -151,7 +151,12 @@ TEST(TrackerServices, AddInThePastBadRequestsAndSeek) {
     ++scored;
   }
   ASSERT_GT(scored, 30);
-  EXPECT_GE(sum / scored, 0.85) << "over " << scored << " frames";
+  // Measured 0.846 since regions turn with the camera's roll (above 0.85
+  // before): card 2 rolls on its own as it slides, often against the
+  // camera's roll, which its region follows (docs/benchmarks.md, "Regions
+  // that turn"; the same class as region_midstart). A lost or stray region
+  // scores under 0.5.
+  EXPECT_GE(sum / scored, 0.82) << "over " << scored << " frames";
 
   // Random access: the state at frame 10, before the region was given.
   SeekRegions seek;

@@ -1,5 +1,7 @@
 #include "instant_motion_tracking/core/region/region_appearance.h"
 
+#include "region_geometry.h"
+
 #include <opencv2/imgproc.hpp>
 
 #include <algorithm>
@@ -8,25 +10,65 @@
 namespace imt {
 namespace {
 
-// `rect` of `gray` resampled to `size` (area averaging), as CV_32F; the part
-// outside the image repeats its border. False when less than `min_inside` of
-// the rect is inside the image.
-bool sample(const cv::Mat& gray, const cv::Rect2d& rect, cv::Size size, double min_inside, cv::Mat* out) {
-  if (size.width < 1 || size.height < 1 || !(rect.width >= 1 && rect.height >= 1)) return false;
-  const cv::Rect2d img(0, 0, gray.cols, gray.rows);
-  if ((rect & img).area() < min_inside * rect.area()) return false;
-  const cv::Rect r(static_cast<int>(std::floor(rect.x + 0.5)), static_cast<int>(std::floor(rect.y + 0.5)),
-                   std::max(1, static_cast<int>(std::lround(rect.width))),
-                   std::max(1, static_cast<int>(std::lround(rect.height))));
+using region_geometry::turnedExtent;
+
+// The integer pixels of `rect` in `gray`; the part outside the image repeats
+// its border. Empty when none of it is inside the image.
+cv::Mat crop(const cv::Mat& gray, const cv::Rect& r) {
   const cv::Rect inside = r & cv::Rect(0, 0, gray.cols, gray.rows);
-  if (inside.area() <= 0) return false;
+  if (inside.area() <= 0) return cv::Mat();
   cv::Mat roi = gray(inside);
   if (inside != r) {
     cv::copyMakeBorder(roi, roi, inside.y - r.y, r.br().y - inside.br().y, inside.x - r.x, r.br().x - inside.br().x,
                        cv::BORDER_REPLICATE);
   }
+  return roi;
+}
+
+// `rect` turned by `angle` about its centre, of `gray`, resampled to `size`
+// (area averaging), as CV_32F: `size` px across the rect's own axes. The
+// part outside the image repeats its border. False when less than
+// `min_inside` of the turned rect's axis-aligned extent is inside the image.
+bool sample(const cv::Mat& gray, const cv::Rect2d& rect, cv::Size size, double min_inside, cv::Mat* out,
+            double angle = 0) {
+  if (size.width < 1 || size.height < 1 || !(rect.width >= 1 && rect.height >= 1)) return false;
+  const cv::Rect2d img(0, 0, gray.cols, gray.rows);
+  const bool turned = !RegionAppearance::unturned(angle);
+  const cv::Rect2d extent = turned ? turnedExtent(rect, angle) : rect;
+  if ((extent & img).area() < min_inside * extent.area()) return false;
+  const cv::Rect r(static_cast<int>(std::floor(extent.x + 0.5)), static_cast<int>(std::floor(extent.y + 0.5)),
+                   std::max(1, static_cast<int>(std::lround(extent.width))),
+                   std::max(1, static_cast<int>(std::lround(extent.height))));
+  const cv::Mat roi = crop(gray, r);
+  if (roi.empty()) return false;
   cv::Mat small;
-  cv::resize(roi, small, size, 0, 0, roi.cols > size.width ? cv::INTER_AREA : cv::INTER_LINEAR);
+  if (!turned) {
+    cv::resize(roi, small, size, 0, 0, roi.cols > size.width ? cv::INTER_AREA : cv::INTER_LINEAR);
+    small.convertTo(*out, CV_32F);
+    return true;
+  }
+  // Turned: the extent is first brought to the output's scale by area
+  // averaging (where it shrinks), then the rect is read off it along its own
+  // axes (bilinear).
+  const double sx = size.width / rect.width, sy = size.height / rect.height;  // output px per image px
+  const double fx = std::min(1.0, sx), fy = std::min(1.0, sy);               // the first step's scale
+  cv::Mat scaled = roi;
+  if (fx < 1 || fy < 1) {
+    cv::resize(roi, scaled,
+               cv::Size(std::max(1, static_cast<int>(std::lround(roi.cols * fx))),
+                        std::max(1, static_cast<int>(std::lround(roi.rows * fy)))),
+               0, 0, cv::INTER_AREA);
+  }
+  const double kx = scaled.cols / static_cast<double>(roi.cols), ky = scaled.rows / static_cast<double>(roi.rows);
+  // Output pixel (u, v) -> image point c + R (d(u, v)), d in image px along
+  // the rect's axes -> the scaled extent's pixel.
+  const double c = std::cos(angle), s = std::sin(angle);
+  const double cx = rect.x + rect.width / 2, cy = rect.y + rect.height / 2;
+  const double du0 = (0.5 - size.width / 2.0) / sx, dv0 = (0.5 - size.height / 2.0) / sy;
+  // Image point of output (u, v): p = c0 + R diag(1/sx, 1/sy) (u, v) + R (du0, dv0).
+  const double px0 = cx + c * du0 - s * dv0 - r.x, py0 = cy + s * du0 + c * dv0 - r.y;
+  cv::Matx23d M(kx * c / sx, -kx * s / sy, kx * px0 - 0.5, ky * s / sx, ky * c / sy, ky * py0 - 0.5);
+  cv::warpAffine(scaled, small, M, size, cv::INTER_LINEAR | cv::WARP_INVERSE_MAP, cv::BORDER_REPLICATE);
   small.convertTo(*out, CV_32F);
   return true;
 }
@@ -61,6 +103,10 @@ AppearanceMatch bestMatch(const cv::Mat& templ, const cv::Mat& window, cv::Point
   return m;
 }
 
+// Turns (rad) the coarse whole-frame search ignores: a 12 px template's
+// corners move by under a pixel.
+constexpr double kCoarseTurn = 0.1;
+
 // A scale change must earn its place: the unscaled match wins ties.
 double scalePenalty(double scale) { return scale == 1.0 ? 0.0 : 0.01; }
 
@@ -91,7 +137,7 @@ const std::vector<double>& RegionAppearance::lostScales() {
 }
 
 AppearanceMatch RegionAppearance::match(const cv::Mat& gray, const cv::Rect2d& box, double margin,
-                                        const std::vector<double>& scales) const {
+                                        const std::vector<double>& scales, double angle) const {
   AppearanceMatch best;
   if (!valid() || gray.empty() || !(box.width >= 1 && box.height >= 1)) return best;
   cv::Mat window, response;
@@ -100,14 +146,22 @@ AppearanceMatch RegionAppearance::match(const cv::Mat& gray, const cv::Rect2d& b
     const double w = box.width * scale, h = box.height * scale;
     const cv::Point2d c(box.x + box.width / 2, box.y + box.height / 2);
     const double sx = templ_.cols / w, sy = templ_.rows / h;
+    // The search area along the region's own axes (turned by `angle` about its centre).
     const cv::Rect2d area(c.x - w / 2 - margin * w, c.y - h / 2 - margin * h, w * (1 + 2 * margin),
                           h * (1 + 2 * margin));
     const cv::Size wsize(static_cast<int>(std::lround(area.width * sx)),
                          static_cast<int>(std::lround(area.height * sy)));
-    if (!sample(gray, area, wsize, 0.5, &window)) continue;
+    if (!sample(gray, area, wsize, 0.5, &window, angle)) continue;
     const double ax = wsize.width / area.width, ay = wsize.height / area.height;  // the window's own scale
     AppearanceMatch m = bestMatch(templ_, window, area.tl(), ax, ay, &response);
     if (!m.found) continue;
+    if (!unturned(angle)) {
+      // The match's offset from the area's centre, along the region's axes, turned back into the image.
+      const double u = m.box.x + m.box.width / 2 - c.x, v = m.box.y + m.box.height / 2 - c.y;
+      const double ca = std::cos(angle), sa = std::sin(angle);
+      m.box.x = c.x + ca * u - sa * v - m.box.width / 2;
+      m.box.y = c.y + sa * u + ca * v - m.box.height / 2;
+    }
     if (scale == 1.0) {
       // The response at the box itself (no shift): how well the prediction looks.
       const int px = std::clamp(static_cast<int>(std::lround((box.x - area.x) * ax)), 0, response.cols - 1);
@@ -125,7 +179,7 @@ AppearanceMatch RegionAppearance::match(const cv::Mat& gray, const cv::Rect2d& b
 }
 
 AppearanceMatch RegionAppearance::matchAnywhere(const cv::Mat& gray, const cv::Rect2d& box,
-                                               const std::vector<double>& scales) const {
+                                               const std::vector<double>& scales, double angle) const {
   AppearanceMatch best;
   if (!valid() || gray.empty() || !(box.width >= 1 && box.height >= 1)) return best;
   // Coarse to fine: the whole frame is searched with the template shrunk to
@@ -139,7 +193,17 @@ AppearanceMatch RegionAppearance::matchAnywhere(const cv::Mat& gray, const cv::R
                cv::Size(std::max(4, static_cast<int>(std::lround(templ_.cols * coarse))),
                         std::max(4, static_cast<int>(std::lround(templ_.rows * coarse)))),
                0, 0, cv::INTER_AREA);
-  const cv::Mat& t = coarse < 1 ? small : templ_;
+  cv::Mat t = coarse < 1 ? small : templ_;
+  if (std::abs(angle) > kCoarseTurn) {
+    // The region is turned in the image: so is the coarse template (its
+    // corners repeat its border; the refinement below reads it turned). A
+    // small turn moves the coarse template's corners by under a pixel.
+    cv::Mat turned;
+    const cv::Point2f tc(static_cast<float>(t.cols / 2.0 - 0.5), static_cast<float>(t.rows / 2.0 - 0.5));
+    cv::warpAffine(t, turned, cv::getRotationMatrix2D(tc, -angle * 180 / M_PI, 1.0), t.size(), cv::INTER_LINEAR,
+                   cv::BORDER_REPLICATE);
+    t = turned;
+  }
   cv::Mat window, response;
   double best_key = -2;  // the score less the scale's penalty
   for (const double scale : scales) {
@@ -150,7 +214,7 @@ AppearanceMatch RegionAppearance::matchAnywhere(const cv::Mat& gray, const cv::R
     AppearanceMatch m = bestMatch(t, window, cv::Point2d(0, 0), wsize.width / static_cast<double>(gray.cols),
                                   wsize.height / static_cast<double>(gray.rows), &response);
     // Refined within two coarse pixels either way.
-    if (m.found && coarse < 1) m = match(gray, m.box, 2.0 / t.cols, {1.0});
+    if (m.found && (coarse < 1 || !unturned(angle))) m = match(gray, m.box, 2.0 / t.cols, {1.0}, angle);
     if (m.found && m.score - scalePenalty(scale) > best_key) {
       best_key = m.score - scalePenalty(scale);
       best = m;
@@ -159,9 +223,9 @@ AppearanceMatch RegionAppearance::matchAnywhere(const cv::Mat& gray, const cv::R
   return best;
 }
 
-void RegionAppearance::blend(const cv::Mat& gray, const cv::Rect2d& box, double rate) {
+void RegionAppearance::blend(const cv::Mat& gray, const cv::Rect2d& box, double rate, double angle) {
   cv::Mat now;
-  if (!valid() || !(rate > 0) || !sample(gray, box, templ_.size(), 0.75, &now)) return;
+  if (!valid() || !(rate > 0) || !sample(gray, box, templ_.size(), 0.75, &now, angle)) return;
   cv::Mat next;
   cv::addWeighted(templ_, 1 - std::min(rate, 1.0), now, std::min(rate, 1.0), 0, next);
   templ_ = next;  // a new buffer: states that share the old template keep it

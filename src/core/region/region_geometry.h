@@ -24,6 +24,25 @@ inline cv::Rect2d withAspect(const cv::Rect2d& b, double aspect) {
   return boxAt(centre(b), k * b.width, b.height / k);
 }
 
+// The axis-aligned extent of `box` turned by `angle` (rad) about its centre.
+inline cv::Rect2d turnedExtent(const cv::Rect2d& box, double angle) {
+  const double c = std::abs(std::cos(angle)), s = std::abs(std::sin(angle));
+  return boxAt(centre(box), box.width * c + box.height * s, box.width * s + box.height * c);
+}
+
+// The axis-aligned extent reported for a region whose `box` has turned by
+// `angle`: what lies inside the box is unknown. A rectangle filling it (a
+// poster, a screen) grows its extent most as it turns, a round object not at
+// all, and an object already turned when the box was drawn grows less than
+// the box would. The extent is the mean of the turned rectangle's and the
+// turned inscribed ellipse's.
+inline cv::Rect2d reportedExtent(const cv::Rect2d& box, double angle) {
+  const double c = std::abs(std::cos(angle)), s = std::abs(std::sin(angle));
+  const double w = box.width, h = box.height;
+  const double ew = std::sqrt(w * w * c * c + h * h * s * s), eh = std::sqrt(w * w * s * s + h * h * c * c);
+  return boxAt(centre(box), 0.5 * (w * c + h * s + ew), 0.5 * (w * s + h * c + eh));
+}
+
 // The fraction of `box` inside an image of `size`.
 inline double fractionInside(const cv::Rect2d& box, cv::Size size) {
   const cv::Rect2d inter = box & cv::Rect2d(0, 0, size.width, size.height);

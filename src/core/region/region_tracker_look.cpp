@@ -110,7 +110,7 @@ void RegionTracker::checkAppearance(const RegionState& state, RegionState* next,
   // look's sizes are not used (below): its own size only, a third the cost.
   static const std::vector<double> own_size = {1.0};
   const auto& scales = motion_weak ? RegionAppearance::trackedScales() : own_size;
-  const AppearanceMatch m = state.appearance.match(image, next->box, margin, scales);
+  const AppearanceMatch m = state.appearance.match(image, next->box, margin, scales, next->angle);
   if (!m.found) {
     next->appearance_score = -1;
     return;
@@ -118,6 +118,13 @@ void RegionTracker::checkAppearance(const RegionState& state, RegionState* next,
   double score = m.score_at_box;
   // How firmly the features carry the region (1: confidence_inliers or more).
   const double motion_confidence = motion_weak ? 0.0 : std::min(1.0, next->inliers.size() / o.confidence_inliers);
+  // The look's own turn: the template a step either way of the region's
+  // turn, matched close around the best place. The motion gives the turn
+  // of the background where the region is; the look says whether the
+  // region turned with it (a car on the road ahead does not roll with the
+  // road's perspective), where it knows the region well (a strong match:
+  // a walker's look changes with every step, and turns as often).
+  if (m.score >= o.reacquire_score) turnByLook(state, next, m, motion_weak, motion_confidence, image);
   // A clearly better look nearby: move toward it (all the way when the motion
   // data had nothing to say about the region itself).
   if (m.score >= o.appearance_accept && m.score > m.score_at_box + o.appearance_gap) {
@@ -153,14 +160,15 @@ void RegionTracker::checkAppearance(const RegionState& state, RegionState* next,
     // the look at placement agrees on where the region is (else the
     // template would learn whatever drifted into the box).
     if (!motion_weak || score >= o.reacquire_score) {
-      const AppearanceMatch first = state.first_appearance.match(image, next->box, 0.1, scales);
+      const AppearanceMatch first = state.first_appearance.match(image, next->box, 0.1, scales, next->angle);
       const cv::Point2d d = (first.box.tl() + first.box.br()) / 2 - (next->box.tl() + next->box.br()) / 2;
       const double tolerance = 0.015 * std::max(next->box.width, next->box.height);
       const bool first_agrees = first.found && first.score >= o.appearance_lost_score && std::hypot(d.x, d.y) <= tolerance;
       // A region the features carry firmly may change its look (turn, tilt)
       // beyond the first look's recognition: the features vouch for it.
       if (first_agrees || motion_confidence >= 0.75)
-        next->appearance.blend(image, next->box, 1 - std::pow(1 - o.appearance_update, state.look_age + 1));
+        next->appearance.blend(image, next->box, 1 - std::pow(1 - o.appearance_update, state.look_age + 1),
+                               next->angle);
     }
   } else if (score < o.appearance_lost_score) {
     // It looks wrong. Lost after appearance_lost_frames of that while few
@@ -178,6 +186,32 @@ void RegionTracker::checkAppearance(const RegionState& state, RegionState* next,
   }
 }
 
+void RegionTracker::turnByLook(const RegionState& state, RegionState* next, const AppearanceMatch& m,
+                               bool motion_weak, double motion_confidence, const cv::Mat& image) const {
+  const double step = kLookTurnStep;
+  const cv::Rect2d at = m.box;  // the look's best place at the region's turn
+  const AppearanceMatch minus = state.appearance.match(image, at, kLookTurnMargin, {1.0}, next->angle - step);
+  const AppearanceMatch plus = state.appearance.match(image, at, kLookTurnMargin, {1.0}, next->angle + step);
+  if (!minus.found || !plus.found) return;
+  // The turn the three scores peak at (a parabola through them), within a
+  // step either way; a turn must beat the region's by 0.01, as a scale must.
+  const double s0 = m.score, sm = minus.score, sp = plus.score;
+  double d = 0;
+  if (std::max(sm, sp) > s0 + 0.01) {
+    d = sp > sm ? step : -step;
+  } else {
+    const double curv = sm - 2 * s0 + sp;
+    if (curv < 0) d = std::clamp(0.5 * (sm - sp) / curv, -0.5, 0.5) * step;
+  }
+  if (d == 0) return;
+  // As far as the look moves a region's place (appearance_gain), taken
+  // every frame it was not checked on as well.
+  const double k = motion_weak ? 1.0
+                               : 1 - std::pow(1 - options_.appearance_gain * (1 - motion_confidence),
+                                              state.look_age + 1);
+  next->angle = std::remainder(next->angle + k * d, 2 * M_PI);
+}
+
 void RegionTracker::reacquire(RegionState* next, const cv::Mat& image) const {
   const RegionTrackerOptions& o = options_;
   next->lost_frames += 1;
@@ -192,18 +226,20 @@ void RegionTracker::reacquire(RegionState* next, const cv::Mat& image) const {
   when.local = when.whole || (when.local && (next->lost_frames + next->id) % look_interval_ == 0);
   if (!when.local) return;
   const auto& scales = RegionAppearance::lostScales();
-  AppearanceMatch m = next->appearance.match(image, next->box, 1.0, scales);
+  const double angle = next->angle;  // the last turn it was seen at
+  AppearanceMatch m = next->appearance.match(image, next->box, 1.0, scales, angle);
   if (when.whole && (!m.found || m.score < o.reacquire_score)) {
     const bool first = when.k % 2 == 1 && next->first_appearance.valid();
     // The look at placement, at the aspect it was taken at.
     const cv::Rect2d placed_box = region_geometry::withAspect(next->box, next->placed_aspect);
     if (first) {
-      const AppearanceMatch f = next->first_appearance.match(image, placed_box, 1.0, scales);
+      const AppearanceMatch f = next->first_appearance.match(image, placed_box, 1.0, scales, angle);
       if (f.found && f.score > m.score) m = f;
     }
     if (!m.found || m.score < o.reacquire_score) {
-      const AppearanceMatch a = first ? next->first_appearance.matchAnywhere(image, placed_box)
-                                      : next->appearance.matchAnywhere(image, next->box);
+      const AppearanceMatch a =
+          first ? next->first_appearance.matchAnywhere(image, placed_box, RegionAppearance::lostScales(), angle)
+                : next->appearance.matchAnywhere(image, next->box, RegionAppearance::lostScales(), angle);
       if (a.found && a.score > m.score) m = a;
     }
   }
@@ -214,6 +250,7 @@ void RegionTracker::reacquire(RegionState* next, const cv::Mat& image) const {
   const RegionAppearance look = next->appearance, first = next->first_appearance;
   const double interval = next->frame_interval, placed_aspect = next->placed_aspect;
   *next = RegionState::start(next->id, m.box, next->stamp);
+  next->angle = angle;
   next->placed_aspect = placed_aspect;
   next->appearance = look;
   next->first_appearance = first;

@@ -22,6 +22,7 @@
 
 #include <opencv2/core.hpp>
 
+#include <cmath>
 #include <vector>
 
 namespace imt {
@@ -48,15 +49,21 @@ class RegionAppearance {
   static const std::vector<double>& lostScales();
   // Searches `gray` around `box`: shifts up to `margin` times the box's
   // sides either way, at the box's size times each of `scales` (a scale
-  // other than 1 must beat 1 by 0.01 to win).
+  // other than 1 must beat 1 by 0.01 to win). `angle` (rad): the region is
+  // turned in the image by this much about the box's centre since its look
+  // was taken (x toward y); the search runs along its turned axes and the
+  // match's box is the unturned rect about the matched centre.
   AppearanceMatch match(const cv::Mat& gray, const cv::Rect2d& box, double margin,
-                        const std::vector<double>& scales = trackedScales()) const;
-  // The look of `box` in `gray` blended in with weight `rate` (0 .. 1).
-  void blend(const cv::Mat& gray, const cv::Rect2d& box, double rate);
+                        const std::vector<double>& scales = trackedScales(), double angle = 0) const;
+  // The look of `box` turned by `angle` in `gray` blended in with weight `rate` (0 .. 1).
+  void blend(const cv::Mat& gray, const cv::Rect2d& box, double rate, double angle = 0);
   // Matches over the whole image at the size of `box` times each of
-  // `scales` (anywhere): finding a region that was lost.
+  // `scales` (anywhere), turned by `angle`: finding a region that was lost.
   AppearanceMatch matchAnywhere(const cv::Mat& gray, const cv::Rect2d& box,
-                                const std::vector<double>& scales = lostScales()) const;
+                                const std::vector<double>& scales = lostScales(), double angle = 0) const;
+  // Turns this small are read as none (the template's corners move by under
+  // a fifth of a pixel): the cheaper axis-aligned sampling.
+  static bool unturned(double angle) { return std::abs(angle) < 0.005; }
 
  private:
   cv::Mat templ_;  // CV_32F, fixed size for the region's life

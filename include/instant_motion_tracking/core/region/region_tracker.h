@@ -69,7 +69,9 @@ enum class Direction { kForward, kBackward };
 struct RegionState {
   uint32_t id = 0;
   double stamp = 0;
-  cv::Rect2d box;                  // x, y, width, height (px); meaningless when lost
+  cv::Rect2d box;                  // x, y, width, height (px) of the region before its turn (`angle`); meaningless when lost
+  double angle = 0;                // rad; how far the region has turned in the image since it was given, about
+                                   // the box's centre (x toward y: clockwise as seen)
   RegionStatus status = RegionStatus::kTracked;
   double confidence = 0;           // 0 .. 1
   Eigen::Vector2d velocity = Eigen::Vector2d::Zero();  // px/frame of the box centre, in the tracking direction
@@ -96,6 +98,9 @@ struct RegionState {
   uint32_t next_own_id = 0;
 
   static RegionState start(uint32_t id, const cv::Rect2d& box, double stamp);
+  // The axis-aligned box around the region as seen: `box` turned by `angle`
+  // (what the outputs report; `box` itself when it has not turned).
+  cv::Rect2d extent() const;
   // The state with its direction of travel reversed (velocities negated).
   RegionState reversed() const;
 };
@@ -160,6 +165,18 @@ class RegionTracker {
   // no support of its own), and the search for a lost region.
   void checkAppearance(const RegionState& state, RegionState* next, bool motion_weak, const cv::Mat& image) const;
   void reacquire(RegionState* next, const cv::Mat& image) const;
+  // The look's correction of the region's turn, around its best match `m`.
+  void turnByLook(const RegionState& state, RegionState* next, const AppearanceMatch& m, bool motion_weak,
+                  double motion_confidence, const cv::Mat& image) const;
+  // The turns the look tries either way of the region's (rad), and the
+  // reach of those matches around its best place (a fraction of its sides).
+  static constexpr double kLookTurnStep = 0.05;
+  static constexpr double kLookTurnMargin = 0.05;
+
+ public:
+  // The turn (rad) at which the reported extent takes half of a region's
+  // turn (RegionState::extent()): about twice the look's step.
+  static constexpr double kReportedTurn = 0.1;
 
   RegionTrackerOptions options_;
   cv::Size image_size_;

@@ -3,6 +3,8 @@
 // promise of one error line. Private to src/tools/track_bag.cpp.
 #pragma once
 
+#include "log_cause.h"
+
 #include <console_bridge/console.h>
 
 #include <fcntl.h>
@@ -132,29 +134,6 @@ class LibraryLog : public console_bridge::OutputHandler {
   }
   std::vector<std::string> messages;
 };
-
-// The cause of a message: its text with every number (digits, a sign, a
-// fraction, an exponent) written '#', so that "image data has 19200 bytes"
-// and "image data has 4800 bytes" count as one cause.
-inline std::string causeOf(const std::string& text) {
-  std::string out;
-  for (size_t i = 0; i < text.size();) {
-    const auto digit = [&](size_t j) { return j < text.size() && text[j] >= '0' && text[j] <= '9'; };
-    if (!digit(i)) {
-      out += text[i++];
-      continue;
-    }
-    while (digit(i) || (text[i] == '.' && digit(i + 1))) ++i;
-    if (i < text.size() && (text[i] == 'e' || text[i] == 'E') &&
-        (digit(i + 1) || ((text[i + 1] == '-' || text[i + 1] == '+') && digit(i + 2)))) {
-      i += 2;
-      while (digit(i)) ++i;
-    }
-    if (!out.empty() && (out.back() == '-' || out.back() == '+')) out.pop_back();
-    out += '#';
-  }
-  return out;
-}
 
 LibraryLog& libraryLog() {
   static LibraryLog log;

@@ -33,6 +33,7 @@
 #include "instant_motion_tracking/TrackedRegionArray.h"
 
 #include "rostest_util.h"
+#include "../../src/tools/log_cause.h"
 
 #include <diagnostic_msgs/DiagnosticArray.h>
 #include <gtest/gtest.h>
@@ -115,29 +116,6 @@ sensor_msgs::Imu imuMsg(const ros::Time& stamp) {
   m.linear_acceleration.y = -9.81;             // up is -y in the optical frame
   m.angular_velocity.y = 0.01;
   return m;
-}
-
-// The cause of a log line: its text with every number written '#'
-// ("frame stamp 1732.5 repeats ..." and "frame stamp 1733.1 repeats ..." are
-// one cause).
-std::string causeOf(const std::string& text) {
-  std::string out;
-  for (size_t i = 0; i < text.size();) {
-    const auto digit = [&](size_t j) { return j < text.size() && std::isdigit(static_cast<unsigned char>(text[j])); };
-    if (!digit(i)) {
-      out += text[i++];
-      continue;
-    }
-    while (digit(i) || (text[i] == '.' && digit(i + 1))) ++i;
-    if (i < text.size() && (text[i] == 'e' || text[i] == 'E') &&
-        (digit(i + 1) || ((text[i + 1] == '-' || text[i + 1] == '+') && digit(i + 2)))) {
-      i += 2;
-      while (digit(i)) ++i;
-    }
-    if (!out.empty() && (out.back() == '-' || out.back() == '+')) out.pop_back();
-    out += '#';
-  }
-  return out;
 }
 
 struct LogLine {
@@ -448,7 +426,7 @@ TEST(LogFlood, EveryWarningIsThrottledPerCauseAndTheGraphLivesOn) {
     std::lock_guard<std::mutex> lock(mutex);
     for (const LogLine& l : lines) {
       if (l.t < flood_start_t) continue;  // the graph coming up
-      CauseStats& c = causes[{l.node, causeOf(l.text)}];
+      CauseStats& c = causes[{l.node, imt::track_bag::causeOf(l.text)}];
       c.level = std::max(c.level, l.level);
       if (c.example.empty()) c.example = l.text;
       c.times.push_back(l.t);

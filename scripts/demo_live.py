@@ -292,7 +292,8 @@ class Recorder:
             self.delays[topic].append(time.monotonic() - arrived)
 
     def on_regions(self, m):
-        states = [{"id": r.id, "box": [r.x, r.y, r.width, r.height], "status": r.status,
+        states = [{"id": r.id, "box": [r.x, r.y, r.width, r.height], "rect": [r.angle, r.rect_width, r.rect_height],
+                   "status": r.status,
                    "confidence": r.confidence} for r in m.regions]
         with self.lock:
             self._delay("regions", m.header.stamp)
@@ -500,11 +501,12 @@ def write_csvs(out, rec):
         return "" if v is None or (isinstance(v, float) and math.isnan(v)) else "%.6f" % v
 
     with open(os.path.join(out, "regions.csv"), "w") as f:
-        f.write("stamp,id,x,y,width,height,status,confidence\n")
+        f.write("stamp,id,x,y,width,height,status,confidence,angle,rect_width,rect_height\n")
         for stamp, states in rec["regions"]:
             for s in states:
-                f.write("%.6f,%d,%s,%s\n" % (stamp, s["id"], ",".join(num(v) for v in s["box"]),
-                                             s["status"] + "," + num(s["confidence"])))
+                f.write("%.6f,%d,%s,%s,%s\n" % (stamp, s["id"], ",".join(num(v) for v in s["box"]),
+                                                s["status"] + "," + num(s["confidence"]),
+                                                ",".join(num(v) for v in s["rect"])))
     with open(os.path.join(out, "planar_targets.csv"), "w") as f:
         f.write("stamp,id,x0,y0,x1,y1,x2,y2,x3,y3,tx,ty,tz,qx,qy,qz,qw,status\n")
         for stamp, states in rec["planar_targets"]:

@@ -122,8 +122,9 @@ const std::vector<std::string>& cameraMotionColumns() {
 }
 
 const std::vector<std::string>& regionColumns() {
-  static const std::vector<std::string> c = {"stamp",  "id",     "x",          "y",
-                                             "width",  "height", "status",     "confidence"};
+  static const std::vector<std::string> c = {"stamp",  "id",         "x",          "y",
+                                             "width",  "height",     "status",     "confidence",
+                                             "angle",  "rect_width", "rect_height"};
   return c;
 }
 
@@ -158,7 +159,9 @@ CsvRow regionRow(const RegionState& s) {
     const cv::Rect2d b = s.extent();
     row.number(b.x).number(b.y).number(b.width).number(b.height);
   }
-  return row.text(regionStatusName(s.status)).number(s.confidence);
+  row.text(regionStatusName(s.status)).number(s.confidence);
+  if (s.status == RegionStatus::kLost) return row.empty().empty().empty();
+  return row.number(s.angle).number(s.box.width).number(s.box.height);
 }
 
 CsvRow planarTargetRow(const PlanarTargetState& s) {

@@ -299,6 +299,9 @@ instant_motion_tracking::TrackedRegion toMsg(const RegionState& s) {
   r.vy = s.velocity.y();
   r.inlier_ids = s.inliers;
   r.outlier_ids = s.outliers;
+  r.angle = lost ? NAN : s.angle;
+  r.rect_width = lost ? NAN : s.box.width;
+  r.rect_height = lost ? NAN : s.box.height;
   return r;
 }
 
@@ -412,7 +415,13 @@ RegionState fromMsg(const instant_motion_tracking::TrackedRegion& m, double stam
   RegionState s;
   s.id = m.id;
   s.stamp = stamp;
-  s.box = cv::Rect2d(m.x, m.y, m.width, m.height);  // the extent it was sent with, read as unturned
+  s.box = cv::Rect2d(m.x, m.y, m.width, m.height);
+  if (std::isfinite(m.angle) && m.rect_width > 0 && m.rect_height > 0) {
+    // The region's own rectangle about the extent's centre, and its turn.
+    const double cx = m.x + m.width / 2.0, cy = m.y + m.height / 2.0;
+    s.box = cv::Rect2d(cx - m.rect_width / 2.0, cy - m.rect_height / 2.0, m.rect_width, m.rect_height);
+    s.angle = m.angle;
+  }
   s.status = statusFromName(m.status, regionStatusName,
                             {RegionStatus::kTracked, RegionStatus::kFeatureless, RegionStatus::kOutOfView,
                              RegionStatus::kLost},

@@ -100,7 +100,7 @@ TEST(CsvColumns, MatchTheSpec) {
   };
   EXPECT_EQ(join(cameraMotionColumns()),
             "stamp,model,h00,h01,h02,h10,h11,h12,h20,h21,h22,features,inliers");
-  EXPECT_EQ(join(regionColumns()), "stamp,id,x,y,width,height,status,confidence");
+  EXPECT_EQ(join(regionColumns()), "stamp,id,x,y,width,height,status,confidence,angle,rect_width,rect_height");
   EXPECT_EQ(join(planarTargetColumns()),
             "stamp,id,x0,y0,x1,y1,x2,y2,x3,y3,tx,ty,tz,qx,qy,qz,qw,status");
   EXPECT_EQ(join(anchorColumns()), "stamp,id,u,v,tx,ty,tz,qx,qy,qz,qw,status");
@@ -118,6 +118,24 @@ TEST(CameraMotionRow, HoldsStampModelRowMajorHAndCounts) {
                                              "120", "100"};
   EXPECT_EQ(cameraMotionRow(md).fields(), expected);
   EXPECT_EQ(cameraMotionRow(md).size(), cameraMotionColumns().size());
+}
+
+// A region's row: the extent of the turned region as the box, then its
+// status, confidence, turn and own rectangle; a lost one has no estimate.
+TEST(RegionRow, HoldsTheTurnedExtentTheTurnAndTheRectangle) {
+  RegionState s = RegionState::start(7, cv::Rect2d(10, 20, 40, 20), 1000.5);
+  s.confidence = 0.75;
+  EXPECT_EQ(regionRow(s).fields(), (std::vector<std::string>{"1000.500000000", "7", "10", "20", "40", "20",
+                                                              "tracked", "0.75", "0", "40", "20"}));
+  s.angle = M_PI / 2;  // a quarter turn: the extent is 20 wide, 40 high (to the soft threshold's 1%)
+  const std::vector<std::string> f = regionRow(s).fields();
+  ASSERT_EQ(f.size(), regionColumns().size());
+  EXPECT_NEAR(std::stod(f[4]), 20, 0.3);
+  EXPECT_NEAR(std::stod(f[5]), 40, 0.3);
+  EXPECT_EQ(f[9], "40");
+  s.status = RegionStatus::kLost;
+  EXPECT_EQ(regionRow(s).fields(),
+            (std::vector<std::string>{"1000.500000000", "7", "", "", "", "", "lost", "0.75", "", "", ""}));
 }
 
 TEST(RunSummary, HasFramesSecondsRateAndStages) {

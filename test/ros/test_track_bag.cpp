@@ -58,7 +58,8 @@ TEST_P(TrackBagImageKinds, WritesOneCameraMotionRowPerFrame) {
       EXPECT_NEAR(std::stod(row[7]), 0.0, 0.25) << "frame " << i;
     }
   }
-  EXPECT_EQ(readFile(out + "/regions.csv"), "stamp,id,x,y,width,height,status,confidence\n");
+  EXPECT_EQ(readFile(out + "/regions.csv"),
+            "stamp,id,x,y,width,height,status,confidence,angle,rect_width,rect_height\n");
   EXPECT_EQ(readFile(out + "/planar_targets.csv"),
             "stamp,id,x0,y0,x1,y1,x2,y2,x3,y3,tx,ty,tz,qx,qy,qz,qw,status\n");
   EXPECT_EQ(readFile(out + "/anchors.csv"), "stamp,id,u,v,tx,ty,tz,qx,qy,qz,qw,status\n");

@@ -39,6 +39,21 @@ TEST(TrackerOutputConversions, RegionsRoundTrip) {
   EXPECT_FLOAT_EQ(back[0].confidence, 0.5);
   EXPECT_EQ(back[1].status, RegionStatus::kLost);
   EXPECT_TRUE(std::isnan(back[1].box.x));  // no estimate
+  // A turned region: its extent goes out as the box, its own rectangle and
+  // turn beside it, and both come back (to float32).
+  RegionState c = RegionState::start(5, cv::Rect2d(100, 50, 80, 40), 1000.5);
+  c.angle = 0.6;
+  const instant_motion_tracking::TrackedRegion m = toMsg(c);
+  EXPECT_NEAR(m.width, c.extent().width, 1e-4);
+  EXPECT_GT(m.height, 60);  // the turned extent, taller than its own box (40) here
+  EXPECT_FLOAT_EQ(m.angle, 0.6);
+  EXPECT_FLOAT_EQ(m.rect_width, 80);
+  const RegionState c2 = fromMsg(m, 1000.5);
+  EXPECT_NEAR(c2.angle, 0.6, 1e-6);
+  EXPECT_NEAR(c2.box.x, 100, 1e-4);
+  EXPECT_NEAR(c2.box.width, 80, 1e-4);
+  EXPECT_NEAR(c2.extent().width, c.extent().width, 1e-3);
+  EXPECT_TRUE(std::isnan(toMsg(b).angle));
   instant_motion_tracking::TrackedRegion odd;
   odd.status = "teleported";
   EXPECT_EQ(fromMsg(odd, 0.0).status, RegionStatus::kLost);

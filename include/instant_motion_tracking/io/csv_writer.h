@@ -78,13 +78,13 @@ std::string formatFixed(double v, int decimals);
 
 // The spec's columns, in order.
 const std::vector<std::string>& cameraMotionColumns();  // stamp,model,h00..h22,features,inliers
-const std::vector<std::string>& regionColumns();        // stamp,id,x,y,width,height,status,confidence
+const std::vector<std::string>& regionColumns();        // stamp,id,x,y,width,height,status,confidence,angle,rect_width,rect_height
 const std::vector<std::string>& planarTargetColumns();  // stamp,id,x0..y3,tx,ty,tz,qx,qy,qz,qw,status
 const std::vector<std::string>& anchorColumns();        // stamp,id,u,v,tx,ty,tz,qx,qy,qz,qw,status
 
 // One camera_motion.csv row of a frame's motion data.
 CsvRow cameraMotionRow(const MotionData& md);
-// One regions.csv row (box columns empty when the region is lost).
+// One regions.csv row (box, angle and rect columns empty when the region is lost).
 CsvRow regionRow(const RegionState& s);
 // One planar_targets.csv row (every estimate column empty when lost).
 CsvRow planarTargetRow(const PlanarTargetState& s);

@@ -10,6 +10,7 @@
 namespace imt {
 namespace {
 
+using region_geometry::peakOffset;
 using region_geometry::turnedExtent;
 
 // The integer pixels of `rect` in `gray`; the part outside the image repeats
@@ -71,13 +72,6 @@ bool sample(const cv::Mat& gray, const cv::Rect2d& rect, cv::Size size, double m
   cv::warpAffine(scaled, small, M, size, cv::INTER_LINEAR | cv::WARP_INVERSE_MAP, cv::BORDER_REPLICATE);
   small.convertTo(*out, CV_32F);
   return true;
-}
-
-// Sub-pixel offset of a peak from its two neighbours (parabola), in [-0.5, 0.5].
-double peakOffset(float left, float centre, float right) {
-  const double d = left - 2.0 * centre + right;
-  if (!(d < 0)) return 0;
-  return std::clamp(0.5 * (left - right) / d, -0.5, 0.5);
 }
 
 // The best match of `templ` in `window` (both CV_32F), `scale` template px

@@ -1,9 +1,11 @@
-// Box geometry shared by the region tracker's files (private to it).
+// Box geometry, and a peak's sub-step offset, shared by the region tracker's
+// files (private to it).
 #pragma once
 
 #include <Eigen/Core>
 #include <opencv2/core.hpp>
 
+#include <algorithm>
 #include <cmath>
 
 namespace imt {
@@ -37,10 +39,19 @@ inline cv::Rect2d turnedExtent(const cv::Rect2d& box, double angle) {
 // the box would. The extent is the mean of the turned rectangle's and the
 // turned inscribed ellipse's.
 inline cv::Rect2d reportedExtent(const cv::Rect2d& box, double angle) {
-  const double c = std::abs(std::cos(angle)), s = std::abs(std::sin(angle));
-  const double w = box.width, h = box.height;
+  const cv::Rect2d rect = turnedExtent(box, angle);
+  const double c = std::cos(angle), s = std::sin(angle), w = box.width, h = box.height;
   const double ew = std::sqrt(w * w * c * c + h * h * s * s), eh = std::sqrt(w * w * s * s + h * h * c * c);
-  return boxAt(centre(box), 0.5 * (w * c + h * s + ew), 0.5 * (w * s + h * c + eh));
+  return boxAt(centre(box), 0.5 * (rect.width + ew), 0.5 * (rect.height + eh));
+}
+
+// Where a peak lies between its two neighbours' samples (a parabola through
+// the three), in steps from the centre sample, within [-0.5, 0.5]; 0 when
+// the centre is no peak.
+inline double peakOffset(double left, double centre, double right) {
+  const double d = left - 2.0 * centre + right;
+  if (!(d < 0)) return 0;
+  return std::clamp(0.5 * (left - right) / d, -0.5, 0.5);
 }
 
 // The fraction of `box` inside an image of `size`.

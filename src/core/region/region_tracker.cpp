@@ -94,29 +94,36 @@ Eigen::Vector2d applyH(const Eigen::Matrix3d& H, const Eigen::Vector2d& p) {
   return q.hnormalized();
 }
 
+// What a homography does to a small patch about the centre of `box`: where
+// the centre goes, and where the patch's axes (of half the box's shorter
+// side, `h`) go from there.
+struct LocalMap {
+  Eigen::Vector2d c2, dx, dy;
+  double h;
+  LocalMap(const cv::Rect2d& box, const Eigen::Matrix3d& H) {
+    const Eigen::Vector2d c(box.x + box.width / 2, box.y + box.height / 2);
+    c2 = applyH(H, c);
+    h = 0.5 * std::max(1.0, std::min(box.width, box.height));
+    dx = applyH(H, c + Eigen::Vector2d(h, 0)) - c2;
+    dy = applyH(H, c + Eigen::Vector2d(0, h)) - c2;
+  }
+  // The local area change's square root (1 when degenerate).
+  double scale() const {
+    const double s = std::sqrt(std::abs(dx.x() * dy.y() - dx.y() * dy.x())) / h;
+    return std::isfinite(s) && s > 0 ? s : 1.0;
+  }
+  // The rotation part (rad, x toward y; 0 when degenerate).
+  double turn() const {
+    const double t = std::atan2(dx.y() - dy.x(), dx.x() + dy.y());
+    return std::isfinite(t) ? t : 0.0;
+  }
+};
+
 // Box moved by a homography: its centre is mapped, its size scaled by the
 // local area change of H at the centre.
 cv::Rect2d moveBox(const cv::Rect2d& box, const Eigen::Matrix3d& H) {
-  const Eigen::Vector2d c(box.x + box.width / 2, box.y + box.height / 2);
-  const Eigen::Vector2d c2 = applyH(H, c);
-  const double h = 0.5 * std::max(1.0, std::min(box.width, box.height));
-  const Eigen::Vector2d dx = applyH(H, c + Eigen::Vector2d(h, 0)) - c2;
-  const Eigen::Vector2d dy = applyH(H, c + Eigen::Vector2d(0, h)) - c2;
-  double s = std::sqrt(std::abs(dx.x() * dy.y() - dx.y() * dy.x())) / h;
-  if (!std::isfinite(s) || s <= 0) s = 1;
-  return boxAt(c2, s * box.width, s * box.height);
-}
-
-// The turn (rad, x toward y) a homography gives a small patch about the
-// centre of `box`: the rotation part of its local Jacobian there.
-double turnAt(const cv::Rect2d& box, const Eigen::Matrix3d& H) {
-  const Eigen::Vector2d c(box.x + box.width / 2, box.y + box.height / 2);
-  const Eigen::Vector2d c2 = applyH(H, c);
-  const double h = 0.5 * std::max(1.0, std::min(box.width, box.height));
-  const Eigen::Vector2d dx = applyH(H, c + Eigen::Vector2d(h, 0)) - c2;
-  const Eigen::Vector2d dy = applyH(H, c + Eigen::Vector2d(0, h)) - c2;
-  const double t = std::atan2(dx.y() - dy.x(), dx.x() + dy.y());
-  return std::isfinite(t) ? t : 0.0;
+  const LocalMap m(box, H);
+  return boxAt(m.c2, m.scale() * box.width, m.scale() * box.height);
 }
 
 cv::Rect2d moveBox(const cv::Rect2d& box, const LocalModel& m) {
@@ -298,7 +305,7 @@ RegionState RegionTracker::stepMotion(const RegionState& state, const MotionData
   // The region turns with the background where it is, whatever else moves
   // it (a lost one too: it is searched for at that turn); its turn is
   // checked against its look (checkAppearance).
-  next.angle = std::remainder(state.angle + turnAt(state.box, H_dir), 2 * M_PI);
+  next.angle = std::remainder(state.angle + LocalMap(state.box, H_dir).turn(), 2 * M_PI);
   if (state.status == RegionStatus::kLost) return next;
   next.reason.clear();
 

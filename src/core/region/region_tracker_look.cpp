@@ -52,6 +52,11 @@ int RegionTracker::lookInterval(const RegionTrackerOptions& options, size_t regi
   return static_cast<int>((regions + options.appearance_budget - 1) / options.appearance_budget);
 }
 
+double RegionTracker::lookGain(const RegionState& state, bool motion_weak, double motion_confidence) const {
+  if (motion_weak) return 1.0;
+  return 1 - std::pow(1 - options_.appearance_gain * (1 - motion_confidence), state.look_age + 1);
+}
+
 double RegionTracker::lookConfidence(double score) const {
   return std::clamp((score - options_.appearance_lost_score) / (1.0 - options_.appearance_lost_score), 0.0, 1.0);
 }
@@ -133,9 +138,7 @@ void RegionTracker::checkAppearance(const RegionState& state, RegionState* next,
     // A region checked on its turn only (appearance_budget) takes the
     // nudges of the frames it was not checked on as well (and its template
     // their updates, below).
-    const double k = motion_weak ? 1.0
-                                 : 1 - std::pow(1 - o.appearance_gain * (1 - motion_confidence),
-                                                state.look_age + 1);
+    const double k = lookGain(state, motion_weak, motion_confidence);
     const cv::Point2d c0 = (next->box.tl() + next->box.br()) / 2, c1 = (m.box.tl() + m.box.br()) / 2;
     const cv::Point2d c = c0 + k * (c1 - c0);
     // Sizes from a 5% scale search are coarse, and a perspective view often
@@ -196,20 +199,11 @@ void RegionTracker::turnByLook(const RegionState& state, RegionState* next, cons
   // The turn the three scores peak at (a parabola through them), within a
   // step either way; a turn must beat the region's by 0.01, as a scale must.
   const double s0 = m.score, sm = minus.score, sp = plus.score;
-  double d = 0;
-  if (std::max(sm, sp) > s0 + 0.01) {
-    d = sp > sm ? step : -step;
-  } else {
-    const double curv = sm - 2 * s0 + sp;
-    if (curv < 0) d = std::clamp(0.5 * (sm - sp) / curv, -0.5, 0.5) * step;
-  }
+  const double d = std::max(sm, sp) > s0 + 0.01 ? (sp > sm ? step : -step)
+                                                : step * region_geometry::peakOffset(sm, s0, sp);
   if (d == 0) return;
-  // As far as the look moves a region's place (appearance_gain), taken
-  // every frame it was not checked on as well.
-  const double k = motion_weak ? 1.0
-                               : 1 - std::pow(1 - options_.appearance_gain * (1 - motion_confidence),
-                                              state.look_age + 1);
-  next->angle = std::remainder(next->angle + k * d, 2 * M_PI);
+  // As far as the look moves a region's place.
+  next->angle = std::remainder(next->angle + lookGain(state, motion_weak, motion_confidence) * d, 2 * M_PI);
 }
 
 void RegionTracker::reacquire(RegionState* next, const cv::Mat& image) const {

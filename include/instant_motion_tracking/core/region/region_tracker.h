@@ -145,6 +145,9 @@ class RegionTracker {
   void initFromImage(RegionState* state, const cv::Mat& image, const MotionData& md) const;
   // Ids of the regions' own features start here (the motion analysis's are below).
   static constexpr uint32_t kOwnFeatureIdBase = 0x80000000u;
+  // The turn (rad) at which the reported extent takes half of a region's
+  // turn (RegionState::extent()): about twice the look's turn step.
+  static constexpr double kReportedTurn = 0.1;
 
   const RegionTrackerOptions& options() const { return options_; }
   cv::Size imageSize() const { return image_size_; }
@@ -154,6 +157,11 @@ class RegionTracker {
   // The confidence a look's correlation `score` gives (0 at
   // appearance_lost_score, 1 at a perfect match).
   double lookConfidence(double score) const;
+  // How far the look moves a region toward what it saw (its place, its
+  // turn): all the way when the motion step had no support of its own,
+  // else appearance_gain times (1 - the features' confidence), taken for
+  // every frame since the look was last checked (appearance_budget).
+  double lookGain(const RegionState& state, bool motion_weak, double motion_confidence) const;
   // The motion step; with both images, the region's own features are tracked
   // too (`own`: those that were) and join the fit.
   RegionState stepMotion(const RegionState& state, const MotionData& md, Direction dir, double prev_stamp,
@@ -172,11 +180,6 @@ class RegionTracker {
   // reach of those matches around its best place (a fraction of its sides).
   static constexpr double kLookTurnStep = 0.05;
   static constexpr double kLookTurnMargin = 0.05;
-
- public:
-  // The turn (rad) at which the reported extent takes half of a region's
-  // turn (RegionState::extent()): about twice the look's step.
-  static constexpr double kReportedTurn = 0.1;
 
   RegionTrackerOptions options_;
   cv::Size image_size_;

@@ -1,11 +1,13 @@
 #include "instant_motion_tracking/core/tracking_session.h"
 
+#include "instant_motion_tracking/core/item_requests.h"
 #include "option_checker.h"
 
 #include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <limits>
 
 namespace imt {
 namespace {
@@ -20,13 +22,24 @@ ImuOptions imuOptionsFor(ImuOptions o, TrackingSession::Mode mode) {
   return o;
 }
 
+// The region manager holds the user's regions and each anchor's own (an
+// anchor tracks a region): its cap is max_regions plus one region per anchor
+// (AnchorManager::kMaxAnchors), while addRegion() caps the user's regions at
+// max_regions. Each kind has its own cap: anchors do not use up regions, nor
+// regions anchors.
+RegionTrackerOptions regionManagerOptions(RegionTrackerOptions o) {
+  o.max_regions = static_cast<int>(std::min<long long>(
+      std::numeric_limits<int>::max(), static_cast<long long>(o.max_regions) + AnchorManager::kMaxAnchors));
+  return o;
+}
+
 }  // namespace
 
 TrackingSession::TrackingSession(const PipelineOptions& options, Mode mode)
     : options_(validated(options)),
       mode_(mode),
       analyzer_(options.motion_analysis),
-      regions_(options.region_tracking, mode == Mode::kOffline ? 0.0 : options.cache_seconds),
+      regions_(regionManagerOptions(options.region_tracking), mode == Mode::kOffline ? 0.0 : options.cache_seconds),
       targets_(options.planar_tracking, &regions_.cache()),
       anchors_(std::make_unique<AnchorManager>(options.anchors, imuOptionsFor(options.imu, mode),
                                                options.default_hfov_deg, &regions_)) {
@@ -202,9 +215,16 @@ void TrackingSession::flushFor(double stamp) {
 
 bool TrackingSession::addRegion(uint32_t id, double stamp, const cv::Rect2d& box, uint32_t* assigned_id,
                                 std::string* error) {
-  if (id >= AnchorManager::kAnchorRegionBase) {
-    *error = "region id " + std::to_string(id) + " is reserved (ids must be below " +
-             std::to_string(AnchorManager::kAnchorRegionBase) + ")";
+  // The request itself first (the one check every door runs), then the
+  // user's regions against max_regions (the anchors' own not counted: see
+  // regionManagerOptions()), then what needs the frame: the region manager's.
+  if (std::string e = validateRegionRequest(id, box); !e.empty()) {
+    *error = e;
+    return false;
+  }
+  if (regionCount() >= static_cast<size_t>(options_.region_tracking.max_regions)) {
+    *error = "already " + std::to_string(regionCount()) +
+             " regions (region_tracking.max_regions): remove some first";
     return false;
   }
   flushFor(stamp);

@@ -1,5 +1,6 @@
 #include "instant_motion_tracking/io/init_spec.h"
 
+#include "instant_motion_tracking/core/item_requests.h"
 #include "instant_motion_tracking/core/planar/planar_target.h"
 
 #include <yaml-cpp/yaml.h>
@@ -87,7 +88,9 @@ class EntryReader {
     return n;
   }
 
-  double number(const YAML::Node& n, const std::string& name) const {
+  // A number; NaN and infinities are refused unless `any` (an item's values,
+  // which the item's validator judges as every door's: item_requests.h).
+  double number(const YAML::Node& n, const std::string& name, bool any = false) const {
     double v = 0;
     bool ok = false;
     if (n.IsScalar()) {
@@ -98,11 +101,12 @@ class EntryReader {
       }
     }
     if (!ok) fail(name + " must be a number, got " + describe(n));
-    if (!std::isfinite(v)) fail(name + " must be finite, got " + describe(n));
+    if (!any && !std::isfinite(v)) fail(name + " must be finite, got " + describe(n));
     return v;
   }
 
-  // A list of exactly `count` numbers.
+  // A list of exactly `N` numbers, any of them NaN or infinite (an item's
+  // values: its validator names those).
   template <size_t N>
   std::array<double, N> numbers(const YAML::Node& n, const std::string& name) const {
     if (!n.IsSequence())
@@ -110,7 +114,7 @@ class EntryReader {
     if (n.size() != N)
       fail(name + " must have " + std::to_string(N) + " numbers, got " + std::to_string(n.size()));
     std::array<double, N> out{};
-    for (size_t i = 0; i < N; ++i) out[i] = number(n[i], name + "[" + std::to_string(i) + "]");
+    for (size_t i = 0; i < N; ++i) out[i] = number(n[i], name + "[" + std::to_string(i) + "]", /*any=*/true);
     return out;
   }
 
@@ -133,8 +137,9 @@ class EntryReader {
   uint32_t id_ = 0;
 };
 
+// `kind` names an item of the list in the core's words ("region").
 template <class Entry, class ReadFn>
-std::vector<Entry> readList(const YAML::Node& root, const char* list,
+std::vector<Entry> readList(const YAML::Node& root, const char* list, const char* kind,
                             const std::vector<std::string>& keys, ReadFn read) {
   std::vector<Entry> out;
   const YAML::Node n = root[list];
@@ -147,7 +152,8 @@ std::vector<Entry> readList(const YAML::Node& root, const char* list,
     Entry e;
     e.id = r.start();
     const auto [it, fresh] = seen.emplace(e.id, i);
-    if (!fresh) r.fail("duplicate id (also " + std::string(list) + "[" + std::to_string(it->second) + "])");
+    if (!fresh)
+      r.fail(alreadyTrackedError(kind, e.id) + " (also " + std::string(list) + "[" + std::to_string(it->second) + "])");
     e.stamp = r.stamp();
     read(r, &e);
     out.push_back(e);
@@ -167,15 +173,18 @@ InitSpec parseRoot(const YAML::Node& root) {
       throw InitError("unknown list '" + key + "' (expected regions, planar_targets, anchors)");
   }
   InitSpec spec;
+  // Each item is checked by its kind's validator, the one every door runs
+  // (core/item_requests.h), so that a bad entry gets the services' answer
+  // before the bag is read; what needs the frame is checked when track_bag
+  // adds it.
   spec.regions = readList<RegionInit>(
-      root, "regions", {"id", "stamp", "box"}, [](const EntryReader& r, RegionInit* e) {
+      root, "regions", "region", {"id", "stamp", "box"}, [](const EntryReader& r, RegionInit* e) {
         e->box = r.numbers<4>(r.field("box"), "box");
-        if (e->box[2] <= 0 || e->box[3] <= 0)
-          r.fail("box width and height must be positive, got " + shortest(e->box[2]) + " x " +
-                 shortest(e->box[3]));
+        const cv::Rect2d box(e->box[0], e->box[1], e->box[2], e->box[3]);
+        if (const std::string why = validateRegionRequest(e->id, box); !why.empty()) r.fail(why);
       });
   spec.planar_targets = readList<PlanarTargetInit>(
-      root, "planar_targets", {"id", "stamp", "corners", "size"},
+      root, "planar_targets", "planar target", {"id", "stamp", "corners", "size"},
       [](const EntryReader& r, PlanarTargetInit* e) {
         const YAML::Node c = r.field("corners");
         if (!c.IsSequence())
@@ -185,23 +194,19 @@ InitSpec parseRoot(const YAML::Node& root) {
         for (size_t i = 0; i < 4; ++i)
           e->corners[i] = r.numbers<2>(c[i], "corners[" + std::to_string(i) + "]");
         e->size = r.numbers<2>(r.field("size"), "size");
-        if (e->size[0] <= 0 || e->size[1] <= 0)
-          r.fail("size must be positive, got " + shortest(e->size[0]) + " x " +
-                 shortest(e->size[1]) + " m");
-        // The same check as add_planar_target's (one validator for every door).
         std::array<cv::Point2d, 4> quad;
         for (size_t i = 0; i < 4; ++i) quad[i] = cv::Point2d(e->corners[i][0], e->corners[i][1]);
         if (const std::string why = validateTargetRequest(quad, e->size[0], e->size[1]); !why.empty())
-          r.fail("corners: " + why);
+          r.fail(why);
       });
   spec.anchors = readList<AnchorInit>(
-      root, "anchors", {"id", "stamp", "point", "depth"}, [](const EntryReader& r, AnchorInit* e) {
+      root, "anchors", "anchor", {"id", "stamp", "point", "depth"}, [](const EntryReader& r, AnchorInit* e) {
         e->point = r.numbers<2>(r.field("point"), "point");
         const YAML::Node d = r.field("depth", /*required=*/false);
-        if (d) {
-          e->depth = r.number(d, "depth");
-          if (e->depth <= 0) r.fail("depth must be positive, got " + shortest(e->depth));
-        }
+        if (d) e->depth = r.number(d, "depth", /*any=*/true);  // 0: the default, as add_anchor's
+        if (const std::string why = validateAnchorRequest(cv::Point2d(e->point[0], e->point[1]), e->depth);
+            !why.empty())
+          r.fail(why);
       });
   return spec;
 }

@@ -51,7 +51,7 @@ TEST(InitSpec, ParsesEveryListWithItsFields) {
   EXPECT_EQ(spec.planar_targets[0].size[0], 0.297);
   ASSERT_EQ(spec.anchors.size(), 2u);
   EXPECT_EQ(spec.anchors[0].depth, 1.6);
-  EXPECT_EQ(spec.anchors[1].depth, 1.0);  // the spec's default when depth is omitted
+  EXPECT_EQ(spec.anchors[1].depth, 0.0);  // omitted: anchors.default_depth (the spec's 1.0), as add_anchor's 0
   EXPECT_EQ(spec.anchors[1].point[1], 0.5);
 }
 
@@ -62,6 +62,16 @@ TEST(InitSpec, EmptyListsAndMissingListsAreFine) {
   EXPECT_TRUE(spec.empty());
   ASSERT_TRUE(parseInitSpec("{}", "f", &spec, &err)) << err;
   EXPECT_TRUE(spec.empty());
+}
+
+// depth 0 means anchors.default_depth at every door (add_anchor's "0 =
+// default"): an INIT entry saying so is not refused.
+TEST(InitSpec, AnchorDepthZeroIsTheDefault) {
+  InitSpec spec;
+  std::string err;
+  ASSERT_TRUE(parseInitSpec("anchors:\n  - {id: 5, stamp: 1, point: [1, 2], depth: 0}\n", "f", &spec, &err)) << err;
+  ASSERT_EQ(spec.anchors.size(), 1u);
+  EXPECT_EQ(spec.anchors[0].depth, 0.0);
 }
 
 TEST(InitSpec, LoadsAFileAndNamesAMissingOne) {
@@ -116,7 +126,7 @@ const BadInit kBad[] = {
     {"id_fraction", "regions:\n  - {id: 1.5, stamp: 1, box: [1, 2, 3, 4]}\n", "INIT.yaml: regions[0]: id must be a positive integer, got '1.5'"},
     {"id_text", "regions:\n  - {id: one, stamp: 1, box: [1, 2, 3, 4]}\n", "INIT.yaml: regions[0]: id must be a positive integer, got 'one'"},
     {"id_too_big", "regions:\n  - {id: 4294967296, stamp: 1, box: [1, 2, 3, 4]}\n", "INIT.yaml: regions[0]: id must be a positive integer, got '4294967296'"},
-    {"duplicate_id", "regions:\n  - {id: 3, stamp: 1, box: [1, 2, 3, 4]}\n  - {id: 4, stamp: 1, box: [1, 2, 3, 4]}\n  - {id: 3, stamp: 2, box: [1, 2, 3, 4]}\n", "INIT.yaml: regions[2] (id 3): duplicate id (also regions[0])"},
+    {"duplicate_id", "regions:\n  - {id: 3, stamp: 1, box: [1, 2, 3, 4]}\n  - {id: 4, stamp: 1, box: [1, 2, 3, 4]}\n  - {id: 3, stamp: 2, box: [1, 2, 3, 4]}\n", "INIT.yaml: regions[2] (id 3): region id 3 is already tracked (also regions[0])"},
     {"unknown_key", "regions:\n  - {id: 7, stamp: 1, boxx: [1, 2, 3, 4]}\n", "INIT.yaml: regions[0] (id 7): unknown key 'boxx' (expected id, stamp, box)"},
     {"missing_stamp", "regions:\n  - {id: 7, box: [1, 2, 3, 4]}\n", "INIT.yaml: regions[0] (id 7): missing field 'stamp'"},
     {"stamp_nan", "regions:\n  - {id: 7, stamp: .nan, box: [1, 2, 3, 4]}\n", "INIT.yaml: regions[0] (id 7): stamp must be finite, got '.nan'"},
@@ -126,24 +136,30 @@ const BadInit kBad[] = {
     {"box_three_numbers", "regions:\n  - {id: 1, stamp: 1, box: [1, 2, 3, 4]}\n  - {id: 2, stamp: 1, box: [1, 2, 3, 4]}\n  - {id: 7, stamp: 1, box: [1, 2, 3]}\n", "INIT.yaml: regions[2] (id 7): box must have 4 numbers, got 3"},
     {"box_scalar", "regions:\n  - {id: 7, stamp: 1, box: 5}\n", "INIT.yaml: regions[0] (id 7): box must be a list of 4 numbers, got '5'"},
     {"box_null", "regions:\n  - {id: 7, stamp: 1, box: }\n", "INIT.yaml: regions[0] (id 7): box must be a list of 4 numbers, got nothing"},
-    {"box_inf", "regions:\n  - {id: 7, stamp: 1, box: [1, .inf, 3, 4]}\n", "INIT.yaml: regions[0] (id 7): box[1] must be finite, got '.inf'"},
+    {"box_inf", "regions:\n  - {id: 7, stamp: 1, box: [1, .inf, 3, 4]}\n", "INIT.yaml: regions[0] (id 7): box has a NaN or infinite value"},
     {"box_nested", "regions:\n  - {id: 7, stamp: 1, box: [1, [2], 3, 4]}\n", "INIT.yaml: regions[0] (id 7): box[1] must be a number, got a list of 1"},
-    {"box_zero_width", "regions:\n  - {id: 7, stamp: 1, box: [1, 2, 0, 4]}\n", "INIT.yaml: regions[0] (id 7): box width and height must be positive, got 0 x 4"},
-    {"box_negative_height", "regions:\n  - {id: 7, stamp: 1, box: [1, 2, 3, -4]}\n", "INIT.yaml: regions[0] (id 7): box width and height must be positive, got 3 x -4"},
+    {"box_zero_width", "regions:\n  - {id: 7, stamp: 1, box: [1, 2, 0, 4]}\n", "INIT.yaml: regions[0] (id 7): box width and height must be positive (got 0 x 4)"},
+    {"box_negative_height", "regions:\n  - {id: 7, stamp: 1, box: [1, 2, 3, -4]}\n", "INIT.yaml: regions[0] (id 7): box width and height must be positive (got 3 x -4)"},
+    {"region_id_reserved", "regions:\n  - {id: 1000000000, stamp: 1, box: [1, 2, 3, 4]}\n", "INIT.yaml: regions[0] (id 1000000000): region id 1000000000 is reserved (ids must be below 1000000000)"},
     {"target_missing_size", "planar_targets:\n  - {id: 2, stamp: 1, corners: [[0, 0], [1, 0], [1, 1], [0, 1]]}\n", "INIT.yaml: planar_targets[0] (id 2): missing field 'size'"},
     {"target_three_corners", "planar_targets:\n  - {id: 2, stamp: 1, corners: [[0, 0], [1, 0], [1, 1]], size: [1, 1]}\n", "INIT.yaml: planar_targets[0] (id 2): corners must have 4 points (TL, TR, BR, BL), got 3"},
     {"target_corner_three_numbers", "planar_targets:\n  - {id: 2, stamp: 1, corners: [[0, 0], [1, 0, 5], [1, 1], [0, 1]], size: [1, 1]}\n", "INIT.yaml: planar_targets[0] (id 2): corners[1] must have 2 numbers, got 3"},
-    {"target_corner_nan", "planar_targets:\n  - {id: 2, stamp: 1, corners: [[0, 0], [1, 0], [1, .NaN], [0, 1]], size: [1, 1]}\n", "INIT.yaml: planar_targets[0] (id 2): corners[2][1] must be finite, got '.NaN'"},
-{"target_corners_crossed", "planar_targets:\n  - {id: 2, stamp: 1, corners: [[0, 0], [10, 0], [0, 10], [10, 10]], size: [1, 1]}\n", "INIT.yaml: planar_targets[0] (id 2): corners: quad is not convex (corners must be TL, TR, BR, BL)"},
-    {"target_corners_counter_clockwise", "planar_targets:\n  - {id: 2, stamp: 1, corners: [[0, 0], [0, 10], [10, 10], [10, 0]], size: [1, 1]}\n", "INIT.yaml: planar_targets[0] (id 2): corners: corners are counter-clockwise in the image (a mirrored quad): they must be TL, TR, BR, BL, clockwise in the image"},
-    {"target_corners_collinear", "planar_targets:\n  - {id: 2, stamp: 1, corners: [[0, 0], [10, 0], [20, 0], [0, 10]], size: [1, 1]}\n", "INIT.yaml: planar_targets[0] (id 2): corners: three corners are collinear"},
-    {"target_corners_tiny", "planar_targets:\n  - {id: 2, stamp: 1, corners: [[0, 0], [4, 0], [4, 4], [0, 4]], size: [1, 1]}\n", "INIT.yaml: planar_targets[0] (id 2): corners: degenerate quad (area below 25 px^2)"},
-    {"target_size_zero", "planar_targets:\n  - {id: 2, stamp: 1, corners: [[0, 0], [1, 0], [1, 1], [0, 1]], size: [0.3, 0]}\n", "INIT.yaml: planar_targets[0] (id 2): size must be positive, got 0.3 x 0 m"},
+    {"target_corner_nan", "planar_targets:\n  - {id: 2, stamp: 1, corners: [[0, 0], [1, 0], [1, .NaN], [0, 1]], size: [1, 1]}\n", "INIT.yaml: planar_targets[0] (id 2): corner with a NaN or infinite coordinate"},
+{"target_corners_crossed", "planar_targets:\n  - {id: 2, stamp: 1, corners: [[0, 0], [10, 0], [0, 10], [10, 10]], size: [1, 1]}\n", "INIT.yaml: planar_targets[0] (id 2): quad is not convex (corners must be TL, TR, BR, BL)"},
+    {"target_corners_counter_clockwise", "planar_targets:\n  - {id: 2, stamp: 1, corners: [[0, 0], [0, 10], [10, 10], [10, 0]], size: [1, 1]}\n", "INIT.yaml: planar_targets[0] (id 2): corners are counter-clockwise in the image (a mirrored quad): they must be TL, TR, BR, BL, clockwise in the image"},
+    {"target_corners_collinear", "planar_targets:\n  - {id: 2, stamp: 1, corners: [[0, 0], [10, 0], [20, 0], [0, 10]], size: [1, 1]}\n", "INIT.yaml: planar_targets[0] (id 2): three corners are collinear"},
+    {"target_corners_tiny", "planar_targets:\n  - {id: 2, stamp: 1, corners: [[0, 0], [4, 0], [4, 4], [0, 4]], size: [1, 1]}\n", "INIT.yaml: planar_targets[0] (id 2): degenerate quad (area below 25 px^2)"},
+    {"target_size_zero", "planar_targets:\n  - {id: 2, stamp: 1, corners: [[0, 0], [10, 0], [10, 10], [0, 10]], size: [0.3, 0]}\n", "INIT.yaml: planar_targets[0] (id 2): target size must be positive (got 0.300000 x 0.000000 m)"},
+    {"target_size_nan", "planar_targets:\n  - {id: 2, stamp: 1, corners: [[0, 0], [10, 0], [10, 10], [0, 10]], size: [.nan, 0.2]}\n", "INIT.yaml: planar_targets[0] (id 2): target size must be positive (got nan x 0.200000 m)"},
+    {"target_duplicate_id", "planar_targets:\n  - {id: 2, stamp: 1, corners: [[0, 0], [10, 0], [10, 10], [0, 10]], size: [1, 1]}\n  - {id: 2, stamp: 1, corners: [[0, 0], [10, 0], [10, 10], [0, 10]], size: [1, 1]}\n", "INIT.yaml: planar_targets[1] (id 2): planar target id 2 is already tracked (also planar_targets[0])"},
     {"target_size_one_number", "planar_targets:\n  - {id: 2, stamp: 1, corners: [[0, 0], [1, 0], [1, 1], [0, 1]], size: [0.3]}\n", "INIT.yaml: planar_targets[0] (id 2): size must have 2 numbers, got 1"},
     {"anchor_missing_point", "anchors:\n  - {id: 5, stamp: 1}\n", "INIT.yaml: anchors[0] (id 5): missing field 'point'"},
     {"anchor_point_three_numbers", "anchors:\n  - {id: 5, stamp: 1, point: [1, 2, 3]}\n", "INIT.yaml: anchors[0] (id 5): point must have 2 numbers, got 3"},
-    {"anchor_depth_zero", "anchors:\n  - {id: 5, stamp: 1, point: [1, 2], depth: 0}\n", "INIT.yaml: anchors[0] (id 5): depth must be positive, got 0"},
-    {"anchor_depth_nan", "anchors:\n  - {id: 5, stamp: 1, point: [1, 2], depth: .nan}\n", "INIT.yaml: anchors[0] (id 5): depth must be finite, got '.nan'"},
+    {"anchor_depth_negative", "anchors:\n  - {id: 5, stamp: 1, point: [1, 2], depth: -1}\n", "INIT.yaml: anchors[0] (id 5): depth must be positive and within 0.01 .. 10000 m (0 = anchors.default_depth), got -1"},
+    {"anchor_depth_nan", "anchors:\n  - {id: 5, stamp: 1, point: [1, 2], depth: .nan}\n", "INIT.yaml: anchors[0] (id 5): depth must be positive and within 0.01 .. 10000 m (0 = anchors.default_depth), got nan"},
+    {"anchor_depth_tiny", "anchors:\n  - {id: 5, stamp: 1, point: [1, 2], depth: 1e-30}\n", "INIT.yaml: anchors[0] (id 5): depth must be positive and within 0.01 .. 10000 m (0 = anchors.default_depth), got 1e-30"},
+    {"anchor_point_nan", "anchors:\n  - {id: 5, stamp: 1, point: [.nan, 2]}\n", "INIT.yaml: anchors[0] (id 5): pixel (nan, 2) has a NaN or infinite value"},
+    {"anchor_duplicate_id", "anchors:\n  - {id: 5, stamp: 1, point: [1, 2]}\n  - {id: 5, stamp: 2, point: [1, 2]}\n", "INIT.yaml: anchors[1] (id 5): anchor id 5 is already tracked (also anchors[0])"},
     {"anchor_unknown_key", "anchors:\n  - {id: 5, stamp: 1, point: [1, 2], dept: 2}\n", "INIT.yaml: anchors[0] (id 5): unknown key 'dept' (expected id, stamp, point, depth)"},
 };
 

@@ -167,19 +167,19 @@ std::vector<BadCase> badCases() {
   add("init_non_positive_size", [](D d, D g) {
         return withInit(d, g, "planar_targets:\n  - {id: 1, stamp: 1000, corners: [[0, 0], [9, 0], [9, 9], [0, 9]], size: [0.2, -1]}\n");
       },
-      "bad_init.yaml: planar_targets[0] (id 1): size must be positive, got 0.2 x -1 m");
+      "bad_init.yaml: planar_targets[0] (id 1): target size must be positive (got 0.200000 x -1.000000 m)");
   add("init_non_positive_depth", [](D d, D g) {
         return withInit(d, g, "anchors:\n  - {id: 1, stamp: 1000, point: [5, 5], depth: -2}\n");
       },
-      "bad_init.yaml: anchors[0] (id 1): depth must be positive, got -2");
+      "bad_init.yaml: anchors[0] (id 1): depth must be positive and within 0.01 .. 10000 m (0 = anchors.default_depth), got -2");
   add("init_nan", [](D d, D g) {
         return withInit(d, g, "regions:\n  - {id: 7, stamp: 1000, box: [1, .nan, 3, 4]}\n");
       },
-      "bad_init.yaml: regions[0] (id 7): box[1] must be finite, got '.nan'");
+      "bad_init.yaml: regions[0] (id 7): box has a NaN or infinite value");
   add("init_duplicate_id", [](D d, D g) {
         return withInit(d, g, "anchors:\n  - {id: 1, stamp: 1000, point: [5, 5]}\n  - {id: 1, stamp: 1000.1, point: [6, 6]}\n");
       },
-      "bad_init.yaml: anchors[1] (id 1): duplicate id (also anchors[0])");
+      "bad_init.yaml: anchors[1] (id 1): anchor id 1 is already tracked (also anchors[0])");
   add("init_bad_id", [](D d, D g) {
         return withInit(d, g, "regions:\n  - {id: 2.5, stamp: 1000, box: [1, 2, 3, 4]}\n");
       },

@@ -5,7 +5,7 @@
 //
 //   regions:        [{id: 1, stamp: 1000.0, box: [x, y, width, height]}]
 //   planar_targets: [{id: 1, stamp: 1000.0, corners: [[x0, y0], ..., [x3, y3]], size: [w_m, h_m]}]
-//   anchors:        [{id: 1, stamp: 1000.0, point: [u, v], depth: 1.6}]   # depth optional
+//   anchors:        [{id: 1, stamp: 1000.0, point: [u, v], depth: 1.6}]   # depth optional (0 = the default)
 //
 // Usage:
 //   imt::InitSpec spec;
@@ -30,7 +30,7 @@ namespace imt {
 struct RegionInit {
   uint32_t id = 0;                   // positive, unique among regions
   double stamp = 0;                  // s, bag time of the frame where the box is given
-  std::array<double, 4> box{};       // x, y (top-left corner), width, height; px; width, height > 0
+  std::array<double, 4> box{};       // x, y (top-left corner), width, height; px
   int frame = -1;                    // index into the frame stamps after resolveInitStamps()
 };
 
@@ -39,7 +39,7 @@ struct PlanarTargetInit {
   uint32_t id = 0;
   double stamp = 0;
   std::array<std::array<double, 2>, 4> corners{};  // px; TL, TR, BR, BL of the target (convex)
-  std::array<double, 2> size{};                    // m; width (TL->TR), height (TL->BL); > 0
+  std::array<double, 2> size{};                    // m; width (TL->TR), height (TL->BL)
   int frame = -1;
 };
 
@@ -48,7 +48,9 @@ struct AnchorInit {
   uint32_t id = 0;
   double stamp = 0;
   std::array<double, 2> point{};     // px; the pixel the user tapped (u, v)
-  double depth = 1.0;                // m along that pixel's ray; > 0; sets the scale
+  // m along that pixel's ray; sets the scale. 0 (also when the entry has no
+  // depth): anchors.default_depth, as add_anchor's depth 0.
+  double depth = 0;
   int frame = -1;
 };
 
@@ -63,10 +65,14 @@ struct InitSpec {
 // Parses INIT.yaml text. False with a one-line message naming `source` and
 // the entry on any error: invalid or empty YAML, top level not a mapping,
 // unknown top-level list, an entry that is not a mapping, a missing field,
-// an unknown key, a list of the wrong length, a non-number, NaN/Inf, an id
-// that is not a positive integer, a duplicate id within a list, a
-// non-positive width/height/size/depth, corners not forming a convex
-// quadrilateral in TL, TR, BR, BL order. `spec` is unchanged on error.
+// an unknown key, a list of the wrong length, a non-number, a stamp that is
+// NaN/Inf or negative, an id that is not a positive integer, a duplicate id
+// within a list ("region id 3 is already tracked (also regions[0])"), and
+// an item its kind's validator refuses (core/item_requests.h: the reason in
+// the words every door uses, e.g. "box has a NaN or infinite value", "corners
+// are counter-clockwise in the image ...", "depth must be positive and
+// within ..."). What needs the frame (the image bounds, max_regions) is
+// checked when the item is added. `spec` is unchanged on error.
 bool parseInitSpec(const std::string& text, const std::string& source, InitSpec* spec,
                    std::string* error);
 bool loadInitSpecFile(const std::string& path, InitSpec* spec, std::string* error);

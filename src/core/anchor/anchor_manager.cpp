@@ -1,6 +1,7 @@
 #include "instant_motion_tracking/core/anchor/anchor_manager.h"
 
 #include "instant_motion_tracking/core/anchor/anchor.h"
+#include "instant_motion_tracking/core/item_requests.h"
 #include "option_checker.h"
 
 #include <algorithm>
@@ -390,16 +391,11 @@ void AnchorManager::tryBind(Anchor& a, double stamp) {
 bool AnchorManager::add(uint32_t id, double stamp, const cv::Point2d& uv, double depth,
                         uint32_t* assigned_id, std::string* error) {
   if (id != 0 && anchors_.count(id)) {
-    *error = "anchor id " + std::to_string(id) + " is already tracked";
+    *error = alreadyTrackedError("anchor", id);
     return false;
   }
-  if (!std::isfinite(uv.x) || !std::isfinite(uv.y)) {
-    *error = "pixel (" + num(uv.x) + ", " + num(uv.y) + ") has a NaN or infinite value";
-    return false;
-  }
-  if (!std::isfinite(depth) || depth < 0 || (depth > 0 && (depth < kMinDepth || depth > kMaxDepth))) {
-    *error = "depth must be positive and within " + num(kMinDepth) + " .. " + num(kMaxDepth) + " m (0 = the default " +
-             num(options_.default_depth) + " m), got " + num(depth);
+  if (std::string e = validateAnchorRequest(uv, depth); !e.empty()) {  // the one check every door runs
+    *error = e;
     return false;
   }
   if (anchors_.size() >= kMaxAnchors) {

@@ -1,5 +1,7 @@
 #include "instant_motion_tracking/core/planar/planar_target_manager.h"
 
+#include "instant_motion_tracking/core/item_requests.h"
+
 #include <algorithm>
 
 #include "option_checker.h"
@@ -51,7 +53,7 @@ bool PlanarTargetManager::add(uint32_t id, double stamp, const std::array<cv::Po
                               std::string* error) {
   const MotionCache& cache = *cache_;
   if (id != 0 && targets_.count(id)) {
-    *error = "planar target id " + std::to_string(id) + " is already tracked";
+    *error = alreadyTrackedError("planar target", id);
     return false;
   }
   // The request itself first, so a bad quad is named even before any frame.

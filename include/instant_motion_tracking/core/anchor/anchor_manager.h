@@ -197,7 +197,8 @@ class AnchorManager {
   // Places an anchor at the pixel `uv` (our pixel convention) of the frame
   // nearest `stamp` (0 = latest; within the cache). id 0 chooses a free id;
   // depth 0 = default_depth. False with a message for a duplicate id, a NaN
-  // or outside pixel, a negative or non-finite depth, or a stamp outside the cache.
+  // pixel or a depth out of range (validateAnchorRequest, item_requests.h),
+  // too many anchors, a stamp outside the cache, or a pixel outside the image.
   bool add(uint32_t id, double stamp, const cv::Point2d& uv, double depth, uint32_t* assigned_id,
            std::string* error);
   bool remove(uint32_t id, std::string* error);

@@ -1,0 +1,45 @@
+#include "instant_motion_tracking/core/item_requests.h"
+
+#include "instant_motion_tracking/core/anchor/anchor_manager.h"
+
+#include <cmath>
+#include <sstream>
+
+namespace imt {
+namespace {
+
+std::string num(double v) {
+  std::ostringstream os;
+  os.precision(12);
+  os << v;
+  return os.str();
+}
+
+}  // namespace
+
+std::string validateRegionRequest(uint32_t id, const cv::Rect2d& box) {
+  if (id >= AnchorManager::kAnchorRegionBase)
+    return "region id " + std::to_string(id) + " is reserved (ids must be below " +
+           std::to_string(AnchorManager::kAnchorRegionBase) + ")";
+  if (!(std::isfinite(box.x) && std::isfinite(box.y) && std::isfinite(box.width) && std::isfinite(box.height)))
+    return "box has a NaN or infinite value";
+  if (box.width <= 0 || box.height <= 0)
+    return "box width and height must be positive (got " + num(box.width) + " x " + num(box.height) + ")";
+  return "";
+}
+
+std::string validateAnchorRequest(const cv::Point2d& uv, double depth) {
+  if (!std::isfinite(uv.x) || !std::isfinite(uv.y))
+    return "pixel (" + num(uv.x) + ", " + num(uv.y) + ") has a NaN or infinite value";
+  if (!std::isfinite(depth) || depth < 0 ||
+      (depth > 0 && (depth < AnchorManager::kMinDepth || depth > AnchorManager::kMaxDepth)))
+    return "depth must be positive and within " + num(AnchorManager::kMinDepth) + " .. " +
+           num(AnchorManager::kMaxDepth) + " m (0 = anchors.default_depth), got " + num(depth);
+  return "";
+}
+
+std::string alreadyTrackedError(const std::string& kind, uint32_t id) {
+  return kind + " id " + std::to_string(id) + " is already tracked";
+}
+
+}  // namespace imt

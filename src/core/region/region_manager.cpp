@@ -1,5 +1,7 @@
 #include "instant_motion_tracking/core/region/region_manager.h"
 
+#include "instant_motion_tracking/core/item_requests.h"
+
 #include "option_checker.h"
 
 #include <algorithm>
@@ -122,7 +124,7 @@ bool RegionManager::add(uint32_t id, double stamp, const cv::Rect2d& box, uint32
     return false;
   }
   if (id != 0 && regions_.count(id)) {
-    *error = "region id " + std::to_string(id) + " is already tracked";
+    *error = alreadyTrackedError("region", id);
     return false;
   }
   uint64_t seq;

@@ -24,12 +24,12 @@ ImuOptions imuOptionsFor(ImuOptions o, TrackingSession::Mode mode) {
 
 // The region manager holds the user's regions and each anchor's own (an
 // anchor tracks a region): its cap is max_regions plus one region per anchor
-// (AnchorManager::kMaxAnchors), while addRegion() caps the user's regions at
+// (anchors.max_anchors), while addRegion() caps the user's regions at
 // max_regions. Each kind has its own cap: anchors do not use up regions, nor
 // regions anchors.
-RegionTrackerOptions regionManagerOptions(RegionTrackerOptions o) {
-  o.max_regions = static_cast<int>(std::min<long long>(
-      std::numeric_limits<int>::max(), static_cast<long long>(o.max_regions) + AnchorManager::kMaxAnchors));
+RegionTrackerOptions regionManagerOptions(RegionTrackerOptions o, int max_anchors) {
+  o.max_regions = static_cast<int>(std::min<long long>(std::numeric_limits<int>::max(),
+                                                       static_cast<long long>(o.max_regions) + max_anchors));
   return o;
 }
 
@@ -39,7 +39,7 @@ TrackingSession::TrackingSession(const PipelineOptions& options, Mode mode)
     : options_(validated(options)),
       mode_(mode),
       analyzer_(options.motion_analysis),
-      regions_(regionManagerOptions(options.region_tracking), mode == Mode::kOffline ? 0.0 : options.cache_seconds),
+      regions_(regionManagerOptions(options.region_tracking, options.anchors.max_anchors), mode == Mode::kOffline ? 0.0 : options.cache_seconds),
       targets_(options.planar_tracking, &regions_.cache()),
       anchors_(std::make_unique<AnchorManager>(options.anchors, imuOptionsFor(options.imu, mode),
                                                options.default_hfov_deg, &regions_)) {

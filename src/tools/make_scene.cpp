@@ -2,7 +2,7 @@
 // with camera images, camera_info, an IMU stream and /tf_static, plus its
 // ground truth as JSON and, optionally, an INIT.yaml for track_bag.
 //
-//   rosrun instant_motion_tracking make_scene --preset cards --out cards.bag \
+//   rosrun instant_motion_tracking make_scene --preset cards --out cards.bag
 //       [--truth cards.json] [--init cards_init.yaml] [--duration 10] [--seed 1] ...
 // Run with --help for every option.
 #include "instant_motion_tracking/sim/scene.h"

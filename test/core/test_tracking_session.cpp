@@ -453,6 +453,50 @@ TEST(TrackingSession, RegionsBeyondMaxRegionsAreRefused) {
   EXPECT_EQ(s.regionCount(), 3u);
 }
 
+// anchors.max_anchors caps the anchors the same way, apart from the regions
+// (each anchor's own region is not one of max_regions).
+TEST(TrackingSession, AnchorsBeyondMaxAnchorsAreRefused) {
+  PipelineOptions o;
+  o.anchors.max_anchors = 2;
+  o.region_tracking.max_regions = 1;
+  TrackingSession s(o, TrackingSession::Mode::kLive);
+  s.analyze(cv::Mat(240, 320, CV_8UC1, cv::Scalar(128)), 1.0);
+  uint32_t id;
+  std::string err;
+  EXPECT_TRUE(s.addRegion(0, 0, cv::Rect2d(10, 10, 15, 15), &id, &err)) << err;
+  for (int i = 0; i < 2; ++i) EXPECT_TRUE(s.addAnchor(0, 0, cv::Point2d(100 + 40 * i, 120), 0, &id, &err)) << err;
+  EXPECT_FALSE(s.addAnchor(0, 0, cv::Point2d(200, 120), 0, &id, &err));
+  EXPECT_NE(err.find("anchors.max_anchors"), std::string::npos) << err;
+  EXPECT_EQ(s.anchorCount(), 2u);
+  o.anchors.max_anchors = 0;
+  EXPECT_THROW(TrackingSession(o, TrackingSession::Mode::kLive), std::invalid_argument);
+}
+
+// planar_tracking.max_targets caps the planar targets (each costs
+// milliseconds per frame), apart from the regions.
+TEST(TrackingSession, PlanarTargetsBeyondMaxTargetsAreRefused) {
+  PipelineOptions o;
+  o.planar_tracking.max_targets = 2;
+  o.region_tracking.max_regions = 1;
+  TrackingSession s(o, TrackingSession::Mode::kLive);
+  cv::Mat texture(240, 320, CV_8UC1);
+  cv::randu(texture, 0, 255);
+  s.analyze(texture, 1.0);
+  uint32_t id;
+  std::string err;
+  EXPECT_TRUE(s.addRegion(0, 0, cv::Rect2d(10, 10, 15, 15), &id, &err)) << err;
+  auto quad = [](double x) {
+    return std::array<cv::Point2d, 4>{cv::Point2d(x, 60), cv::Point2d(x + 80, 60), cv::Point2d(x + 80, 140),
+                                      cv::Point2d(x, 140)};
+  };
+  for (int i = 0; i < 2; ++i) EXPECT_TRUE(s.addPlanarTarget(0, 0, quad(20 + 90 * i), 0.2, 0.2, &id, &err)) << err;
+  EXPECT_FALSE(s.addPlanarTarget(0, 0, quad(210), 0.2, 0.2, &id, &err));
+  EXPECT_NE(err.find("planar_tracking.max_targets"), std::string::npos) << err;
+  EXPECT_EQ(s.planarTargetCount(), 2u);
+  o.planar_tracking.max_targets = 0;
+  EXPECT_THROW(TrackingSession(o, TrackingSession::Mode::kLive), std::invalid_argument);
+}
+
 }  // namespace
 }  // namespace imt
 

@@ -86,6 +86,7 @@ std::string AnchorOptions::validate() const {
   c.check(surface == "horizontal" || surface == "facing", "surface", "must be horizontal or facing",
           "\"" + surface + "\"");
   c.inRange("imu_time_offset", imu_time_offset, -1.0, 1.0);
+  c.inRange("max_anchors", max_anchors, 1, 100000);
   Eigen::Quaterniond q;
   c.check(rotation_cam_imu.empty() || rotationCamImu(&q), "rotation_cam_imu",
           "must be empty or \"qx qy qz qw\", a unit quaternion", "\"" + rotation_cam_imu + "\"");
@@ -398,9 +399,8 @@ bool AnchorManager::add(uint32_t id, double stamp, const cv::Point2d& uv, double
     *error = e;
     return false;
   }
-  if (anchors_.size() >= kMaxAnchors) {
-    *error = "already " + std::to_string(anchors_.size()) + " anchors (at most " + std::to_string(kMaxAnchors) +
-             "): remove some first";
+  if (anchors_.size() >= static_cast<size_t>(options_.max_anchors)) {
+    *error = "already " + std::to_string(anchors_.size()) + " anchors (anchors.max_anchors): remove some first";
     return false;
   }
   if (!std::isfinite(stamp)) {

@@ -151,6 +151,7 @@ std::string PlanarTargetOptions::validate() const {
   c.check(refine_search_margin >= 0 && refine_search_margin < 1, "refine_search_margin", "must be in [0, 1)",
           refine_search_margin);
   c.inRange("image_memory_mb", image_memory_mb, 0.0, 1e6);
+  c.inRange("max_targets", max_targets, 1, 10000);
   return c.error();
 }
 

@@ -77,9 +77,9 @@ bool PlanarTargetManager::add(uint32_t id, double stamp, const std::array<cv::Po
              " image";
     return false;
   }
-  if (targets_.size() >= kMaxTargets) {
-    *error = "already " + std::to_string(targets_.size()) + " planar targets (at most " +
-             std::to_string(kMaxTargets) + "): remove some first";
+  if (targets_.size() >= static_cast<size_t>(options_.max_targets)) {
+    *error = "already " + std::to_string(targets_.size()) +
+             " planar targets (planar_tracking.max_targets): remove some first";
     return false;
   }
   if (id == 0) {

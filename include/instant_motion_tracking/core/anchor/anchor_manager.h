@@ -173,10 +173,9 @@ class AnchorManager {
   static constexpr int kVideoBiasRefitTurns = 30;
   static constexpr double kVideoBiasReach = 0.9;
   // Anchors add() accepts: depth 0 (the default) or in [kMinDepth, kMaxDepth]
-  // m, at most kMaxAnchors at once (each tracks a region).
+  // m, at most options' max_anchors at once (each tracks a region).
   static constexpr double kMinDepth = 0.01;
   static constexpr double kMaxDepth = 1e4;
-  static constexpr size_t kMaxAnchors = 256;
   static constexpr double kRotationUpdateDeg = 0.2;
   static constexpr double kRotationDisagreementDeg = 5.0;
   // Appends an IMU sample (stamp order). kDropped with *why for NaN values or

@@ -20,6 +20,7 @@ struct AnchorOptions {
   std::string surface = "horizontal";
   double imu_time_offset = 0.0;
   bool estimate_imu_time_offset = false;
+  int max_anchors = 256;
 
   template <class V>
   void visit(V& v) {
@@ -46,6 +47,9 @@ struct AnchorOptions {
       "camera's turn rate aligned with the gyro's over the last 20 s of frames, refitted every 2 s; then "
       "refined by the gyro bias's fit, imu.video_bias, once it has one); off by default: without the bias "
       "fit a camera moving over a near plane biases it (+14 ms on the rendered floor walk)");
+    v("max_anchors", max_anchors,
+      "anchors tracked at most; add_anchor and INIT.yaml are refused beyond (each tracks a region of its own, "
+      "not counted in region_tracking.max_regions)");
   }
   // Empty when usable, else "anchors.<field>: must be ... (got ...)".
   std::string validate() const;

@@ -25,8 +25,6 @@ namespace imt {
 
 class PlanarTargetManager {
  public:
-  // At most this many targets at once (each costs milliseconds per frame).
-  static constexpr size_t kMaxTargets = 32;
   // `cache` (the caller's, shared with the regions in a TrackingSession) must
   // outlive the manager. Throws std::invalid_argument on invalid options.
   PlanarTargetManager(const PlanarTargetOptions& options, const MotionCache* cache);

@@ -40,6 +40,7 @@ struct PlanarTargetOptions {
   double refine_search_margin =
       0.15;  // by which it must beat the best match elsewhere (no repeated-pattern confusion)
   double image_memory_mb = 512;
+  int max_targets = 32;
 
   template <class V>
   void visit(V& v) {
@@ -86,6 +87,9 @@ struct PlanarTargetOptions {
       "by which that match must beat the best one elsewhere (no repeated-pattern confusion)");
     v("image_memory_mb", image_memory_mb,
       "MB of gray frames kept for the alignment (oldest dropped first)");
+    v("max_targets", max_targets,
+      "planar targets tracked at most (each costs milliseconds per frame); add_planar_target and INIT.yaml "
+      "are refused beyond");
   }
   std::string validate() const;
   // Whether the appearance alignment runs, so frames' images are wanted.

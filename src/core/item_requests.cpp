@@ -6,16 +6,13 @@
 #include <sstream>
 
 namespace imt {
-namespace {
 
-std::string num(double v) {
+std::string messageNumber(double v) {
   std::ostringstream os;
   os.precision(12);
   os << v;
   return os.str();
 }
-
-}  // namespace
 
 std::string validateRegionRequest(uint32_t id, const cv::Rect2d& box) {
   if (id >= AnchorManager::kAnchorRegionBase)
@@ -24,17 +21,19 @@ std::string validateRegionRequest(uint32_t id, const cv::Rect2d& box) {
   if (!(std::isfinite(box.x) && std::isfinite(box.y) && std::isfinite(box.width) && std::isfinite(box.height)))
     return "box has a NaN or infinite value";
   if (box.width <= 0 || box.height <= 0)
-    return "box width and height must be positive (got " + num(box.width) + " x " + num(box.height) + ")";
+    return "box width and height must be positive (got " + messageNumber(box.width) + " x " +
+           messageNumber(box.height) + ")";
   return "";
 }
 
 std::string validateAnchorRequest(const cv::Point2d& uv, double depth) {
   if (!std::isfinite(uv.x) || !std::isfinite(uv.y))
-    return "pixel (" + num(uv.x) + ", " + num(uv.y) + ") has a NaN or infinite value";
+    return "pixel (" + messageNumber(uv.x) + ", " + messageNumber(uv.y) + ") has a NaN or infinite value";
   if (!std::isfinite(depth) || depth < 0 ||
       (depth > 0 && (depth < AnchorManager::kMinDepth || depth > AnchorManager::kMaxDepth)))
-    return "depth must be positive and within " + num(AnchorManager::kMinDepth) + " .. " +
-           num(AnchorManager::kMaxDepth) + " m (0 = anchors.default_depth), got " + num(depth);
+    return "depth must be positive and within " + messageNumber(AnchorManager::kMinDepth) + " .. " +
+           messageNumber(AnchorManager::kMaxDepth) + " m (0 = anchors.default_depth), got " +
+           messageNumber(depth);
   return "";
 }
 

@@ -39,4 +39,8 @@ std::string validateAnchorRequest(const cv::Point2d& uv, double depth);
 // "planar target", "anchor"): "<kind> id <id> is already tracked".
 std::string alreadyTrackedError(const std::string& kind, uint32_t id);
 
+// A number as the core's refusals and warnings word it (12 significant
+// digits: a stamp keeps its microseconds).
+std::string messageNumber(double v);
+
 }  // namespace imt

@@ -13,13 +13,6 @@
 namespace imt {
 namespace {
 
-std::string num(double v) {
-  std::ostringstream os;
-  os.precision(12);
-  os << v;
-  return os.str();
-}
-
 // The image's up as world z, for anchors without IMU orientation: the camera
 // looks level along world y (optical x = world x, optical y = world -z).
 const Eigen::Matrix3d kImageUpStandIn =
@@ -199,7 +192,7 @@ ImuInput AnchorManager::addImu(const ImuSample& s, std::string* why) {
   if (!imu_.empty() && std::isfinite(s.stamp) &&
       s.stamp < imu_.newestStamp() - options_.imu_reset_seconds) {
     if (why)
-      *why = "IMU stamp " + num(s.stamp) + " is " + num(imu_.newestStamp() - s.stamp) +
+      *why = "IMU stamp " + messageNumber(s.stamp) + " is " + messageNumber(imu_.newestStamp() - s.stamp) +
              " s behind the previous one: IMU orientation restarted";
     resetImu();
     imu_.add(s);
@@ -209,7 +202,7 @@ ImuInput AnchorManager::addImu(const ImuSample& s, std::string* why) {
   if (!imu_.add(s, why)) return ImuInput::kDropped;
   if (imu_.gaps() == gaps) return ImuInput::kAccepted;
   if (why)
-    *why = "IMU gap of " + num(imu_.lastGapSeconds()) + " s before stamp " + num(s.stamp) +
+    *why = "IMU gap of " + messageNumber(imu_.lastGapSeconds()) + " s before stamp " + messageNumber(s.stamp) +
            ": no orientation inside it; roll and pitch re-levelled from the accelerometer, yaw carried over";
   return ImuInput::kGap;
 }
@@ -411,7 +404,7 @@ bool AnchorManager::add(uint32_t id, double stamp, const cv::Point2d& uv, double
   if (!regions_->cache().find(stamp, &seq, error)) return false;
   const cv::Size size = regions_->cache().imageSize();
   if (!(uv.x >= 0 && uv.y >= 0 && uv.x <= size.width && uv.y <= size.height)) {
-    *error = "pixel (" + num(uv.x) + ", " + num(uv.y) + ") is outside the " +
+    *error = "pixel (" + messageNumber(uv.x) + ", " + messageNumber(uv.y) + ") is outside the " +
              std::to_string(size.width) + "x" + std::to_string(size.height) + " image";
     return false;
   }
@@ -509,9 +502,11 @@ AnchorState AnchorManager::stateOf(Anchor& a, const RegionState& r, double stamp
     else if (!a.bound)
       s.reason = "the IMU has not covered the anchor's frame yet";
     else
-      s.reason = "no IMU orientation at stamp " + num(stamp) + " (IMU spans " + num(imu_.oldestStamp()) + " .. " +
-                 num(imu_.newestStamp()) +
-                 (imu_.timeOffset() != 0 ? ", read at image stamp + " + num(imu_.timeOffset()) + " s)" : ")");
+      s.reason = "no IMU orientation at stamp " + messageNumber(stamp) + " (IMU spans " +
+                 messageNumber(imu_.oldestStamp()) + " .. " + messageNumber(imu_.newestStamp()) +
+                 (imu_.timeOffset() != 0
+                      ? ", read at image stamp + " + messageNumber(imu_.timeOffset()) + " s)"
+                      : ")");
   } else if (!q) {
     s.status = AnchorStatus::kCalibrating;
     s.reason = "the IMU-to-camera rotation is not known yet: no tf between the IMU and the camera, no "

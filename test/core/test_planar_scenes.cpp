@@ -233,21 +233,23 @@ TEST(PosterOccluded, CardSlidingAcrossThePosterDoesNotDragIt) {
     // The card crosses hundreds of px: a poster dragged by it, or lost, is
     // tens of px off (before the local-correlation mask and the affine
     // alignment of a half-covered target, seeds 3-5 went 14-31 px while up
-    // to 40% was covered, 14-31 px more covered). Measured worst 3.50 px
-    // (seed 4) up to 40% covered, 7.17 px more covered over seeds 1-6.
+    // to 40% was covered, 14-31 px more covered). Measured worst 0.80 px
+    // (seed 3) up to 40% covered, 6.40 px (seed 3) more covered.
     EXPECT_LE(r.partly, 8.0) << "seed " << seed;
     EXPECT_LE(r.mostly, 12.0) << "seed " << seed;
     // Once the card has left the alignment is as precise as without it
-    // (poster_orbit: median 0.027 px; measured 0.04-0.12 px).
+    // (poster_orbit: median 0.017 px; measured 0.03-0.06 px).
     EXPECT_LE(r.after, 0.5) << "seed " << seed;
     partly_sum += r.partly;
     mostly_sum += r.mostly;
   }
-  // Measured means 2.22 px up to 40% covered (seeds 1-4: 2.87, 1.37, 1.12,
-  // 3.50) and 4.86 px more covered; before, 6.47 and 14.2 (the same seeds).
-  // While four fifths are covered the camera motion and the few features
-  // left carry it to within a few px.
-  EXPECT_LE(partly_sum / 4, 3.0);
+  // Measured means 0.59 px up to 40% covered (seeds 1-4: 0.47, 0.30, 0.80,
+  // 0.78) and 4.03 px more covered; with findTransformECC 2.22 (2.87, 1.37,
+  // 1.12, 3.50; 6.79 px for seed 1 on another CPU) and 4.86; before the
+  // occlusion masks, 6.47 and 14.2. The bar leaves 2.5 times the mean for
+  // another CPU's rounding. While four fifths are covered the camera motion
+  // and the few features left carry it to within a few px.
+  EXPECT_LE(partly_sum / 4, 1.5);
   EXPECT_LE(mostly_sum / 4, 7.0);
 }
 

@@ -8,10 +8,10 @@
 #include <algorithm>
 #include <cmath>
 #include <functional>
+#include <limits>
 
 namespace imt {
 namespace planar_detail {
-namespace {
 
 cv::Matx33d toMatx(const Eigen::Matrix3d& M) {
   cv::Matx33d m;
@@ -20,23 +20,96 @@ cv::Matx33d toMatx(const Eigen::Matrix3d& M) {
   return m;
 }
 
-// The value below which a fraction `q` of `m`'s pixels under `mask` lie.
-float quantile(const cv::Mat& m, const cv::Mat& mask, double q) {
-  std::vector<float> v;
-  v.reserve(m.total());
+namespace {
+
+// The value below which a fraction `q` of `m`'s pixels under `mask` lie
+// (`whole`: the mask is 255 everywhere; `buffer`: scratch space).
+float quantile(const cv::Mat& m, const cv::Mat& mask, bool whole, double q,
+               std::vector<float>* buffer) {
+  std::vector<float>& v = *buffer;
+  v.resize(m.total());
+  size_t n = 0;
   for (int r = 0; r < m.rows; ++r) {
     const float* pm = m.ptr<float>(r);
+    if (whole) {
+      std::copy(pm, pm + m.cols, v.begin() + n);
+      n += m.cols;
+      continue;
+    }
     const uchar* pk = mask.ptr<uchar>(r);
     for (int c = 0; c < m.cols; ++c)
-      if (pk[c]) v.push_back(pm[c]);
+      if (pk[c]) v[n++] = pm[c];
   }
-  if (v.empty()) return 0;
-  const size_t k = std::min(v.size() - 1, static_cast<size_t>(q * v.size()));
-  std::nth_element(v.begin(), v.begin() + k, v.end());
+  if (n == 0) return 0;
+  const size_t k = std::min(n - 1, static_cast<size_t>(q * n));
+  std::nth_element(v.begin(), v.begin() + k, v.begin() + n);
   return v[k];
 }
 
+// The side (px, odd) of the windows unoccludedPixels looks at on `tpl`.
+int occlusionWindow(const cv::Mat& tpl) {
+  return std::max(3, std::min(tpl.cols, tpl.rows) / 8) | 1;
+}
+
+// Window means of `m` times `vf` (the valid pixels, 1 / 0; empty: all).
+cv::Mat localSum(const cv::Mat& m, const cv::Mat& vf, int win) {
+  cv::Mat out;
+  cv::boxFilter(vf.empty() ? m : m.mul(vf), out, CV_32F, cv::Size(win, win), cv::Point(-1, -1),
+                true, cv::BORDER_CONSTANT);
+  return out;
+}
+
+// TemplateWindows of `tpl` where `vf` (1 / 0; empty: all) says it is valid.
+TemplateWindows templateWindows(const cv::Mat& tpl, const cv::Mat& vf) {
+  const int win = occlusionWindow(tpl);
+  TemplateWindows w;
+  w.n = localSum(vf.empty() ? cv::Mat(tpl.size(), CV_32F, cv::Scalar(1)) : vf, cv::Mat(), win);
+  w.seen = w.n > 0.5;  // windows mostly on valid pixels
+  w.n = cv::max(w.n, 1e-3);
+  w.mean = localSum(tpl, vf, win) / w.n;
+  w.var = localSum(tpl.mul(tpl), vf, win) / w.n - w.mean.mul(w.mean);
+  return w;
+}
+
+// Whether every pixel of a grid of `size` mapped by `W` lands (nearest
+// pixel) on an image of size `image`: the grid's corners do, in front of the
+// camera (the grid's image is then the convex quad they span).
+bool allSamplesInside(const cv::Matx33d& W, cv::Size size, cv::Size image) {
+  for (const cv::Point2d& g :
+       {cv::Point2d(0, 0), cv::Point2d(size.width - 1, 0),
+        cv::Point2d(size.width - 1, size.height - 1), cv::Point2d(0, size.height - 1)}) {
+    const cv::Vec3d p = W * cv::Vec3d(g.x, g.y, 1);
+    if (!(p[2] > 1e-9)) return false;
+    const double x = p[0] / p[2], y = p[1] / p[2];
+    if (!(x >= 0 && y >= 0 && x <= image.width - 1 && y <= image.height - 1)) return false;
+  }
+  return true;
+}
+
 }  // namespace
+
+double displacementBound(const cv::Matx33d& M, cv::Size size) {
+  if (!(M(2, 2) != 0)) return std::numeric_limits<double>::infinity();
+  const cv::Matx33d W = M * (1.0 / M(2, 2));
+  const double xs[2] = {0.0, size.width - 1.0}, ys[2] = {0.0, size.height - 1.0};
+  // Displacement along x: ((h00 - 1) x + h01 y + h02 - x (h20 x + h21 y)) / (h20 x + h21 y + 1);
+  // the affine parts are largest at the corners.
+  double px = 0, py = 0, q = 0, den = std::numeric_limits<double>::infinity();
+  for (double x : xs) {
+    for (double y : ys) {
+      px = std::max(px, std::abs((W(0, 0) - 1) * x + W(0, 1) * y + W(0, 2)));
+      py = std::max(py, std::abs(W(1, 0) * x + (W(1, 1) - 1) * y + W(1, 2)));
+      q = std::max(q, std::abs(W(2, 0) * x + W(2, 1) * y));
+      den = std::min(den, W(2, 0) * x + W(2, 1) * y + 1);
+    }
+  }
+  if (!(den > 0)) return std::numeric_limits<double>::infinity();
+  return std::max(px + xs[1] * q, py + ys[1] * q) / den;
+}
+
+bool movesNoPixel(const cv::Matx33d& warp, cv::Size size) {
+  return displacementBound(warp, size) < 0.49;  // rounds to the same pixel, with a margin for rounding
+}
 
 Eigen::Matrix3d templateToPlane(double px_per_m, int level, double w, double h) {
   const double f = (1 << level) / px_per_m;
@@ -176,6 +249,10 @@ void sampleImage(const cv::Mat& gray, int level, const Eigen::Matrix3d& M, cv::S
   cv::warpPerspective(im, warped, W, size, cv::INTER_LINEAR | cv::WARP_INVERSE_MAP,
                       cv::BORDER_CONSTANT, 0);
   warped.convertTo(*out, CV_32F);
+  if (allSamplesInside(W, size, im.size())) {  // what the warp and erosion below give then
+    *valid = cv::Mat(size, CV_8U, cv::Scalar(255));
+    return;
+  }
   const cv::Mat ones(im.size(), CV_8U, cv::Scalar(255));
   cv::warpPerspective(ones, *valid, W, size, cv::INTER_NEAREST | cv::WARP_INVERSE_MAP,
                       cv::BORDER_CONSTANT, 0);
@@ -190,26 +267,35 @@ constexpr double kOccluderCorrelation = 0.3;
 // correlate (searchTemplate's featureless tiles alike).
 constexpr double kTexturedStd = 2.0;
 
+TemplateWindows TemplateWindows::of(const cv::Mat& tpl) { return templateWindows(tpl, cv::Mat()); }
+
 cv::Mat unoccludedPixels(const cv::Mat& tpl, const cv::Mat& grad, const cv::Mat& aligned,
-                         const cv::Mat& valid, double k_sigma, double shift) {
+                         const cv::Mat& valid, double k_sigma, double shift,
+                         const TemplateWindows* whole_windows) {
+  const bool whole = cv::countNonZero(valid) == static_cast<int>(valid.total());
+  const cv::Mat ta = tpl.mul(aligned);
   cv::Mat fit = valid.clone(), resid;
   double sigma = 0;
+  std::vector<float> buffer;
   for (int it = 0; it < 3; ++it) {
     cv::Scalar mt, st, mi, si;
     cv::meanStdDev(tpl, mt, st, fit);
     cv::meanStdDev(aligned, mi, si, fit);
-    const double cov = cv::mean(tpl.mul(aligned), fit)[0] - mt[0] * mi[0];
+    const double cov = cv::mean(ta, fit)[0] - mt[0] * mi[0];
     const double gain = si[0] > 1e-3 ? cov / (si[0] * si[0]) : 1.0;
     resid = cv::abs(tpl - (gain * aligned + (mt[0] - gain * mi[0])));
-    // The noise level from the best quarter (|N(0, s)| has its 25% quantile
-    // at 0.319 s), the next fit from the best half.
-    sigma = std::max(0.5, quantile(resid, valid, 0.25) / 0.319);
-    cv::bitwise_and(valid, resid <= quantile(resid, valid, 0.5), fit);
+    // The next fit from the best half; after the last, the noise level from
+    // the best quarter (|N(0, s)| has its 25% quantile at 0.319 s).
+    if (it < 2) {
+      cv::bitwise_and(valid, resid <= quantile(resid, valid, whole, 0.5, &buffer), fit);
+    } else {
+      sigma = std::max(0.5, quantile(resid, valid, whole, 0.25, &buffer) / 0.319);
+    }
   }
   cv::Mat expected;
   cv::magnitude(grad * shift, cv::Mat(grad.size(), CV_32F, cv::Scalar(sigma)), expected);
   cv::Mat outliers = (resid > k_sigma * expected) & valid, dense;
-  const int win = std::max(3, std::min(tpl.cols, tpl.rows) / 8) | 1;
+  const int win = occlusionWindow(tpl);
   cv::boxFilter(outliers, dense, CV_32F, cv::Size(win, win), cv::Point(-1, -1), true,
                 cv::BORDER_REPLICATE);
   cv::Mat covered = dense > 0.5 * 255;
@@ -221,27 +307,19 @@ cv::Mat unoccludedPixels(const cv::Mat& tpl, const cv::Mat& grad, const cv::Mat&
   // After an alignment only (a small `shift`): around a prediction a few
   // pixels off, fine texture does not correlate with itself either.
   if (shift <= 1.0) {
-    cv::Mat vf;
-    valid.convertTo(vf, CV_32F, 1.0 / 255);
-    auto local = [&](const cv::Mat& m) {  // window means over the valid pixels
-      cv::Mat out;
-      cv::boxFilter(m.mul(vf), out, CV_32F, cv::Size(win, win), cv::Point(-1, -1), true, cv::BORDER_CONSTANT);
-      return out;
-    };
-    cv::Mat n = local(cv::Mat(valid.size(), CV_32F, cv::Scalar(1)));
-    const cv::Mat seen = n > 0.5;  // windows mostly on valid pixels
-    n = cv::max(n, 1e-3);
-    const cv::Mat mt = local(tpl) / n, ma = local(aligned) / n;
-    const cv::Mat vt = local(tpl.mul(tpl)) / n - mt.mul(mt);
-    const cv::Mat va = local(aligned.mul(aligned)) / n - ma.mul(ma);
-    const cv::Mat cov = local(tpl.mul(aligned)) / n - mt.mul(ma);
+    cv::Mat vf;  // empty: every pixel valid
+    if (!whole) valid.convertTo(vf, CV_32F, 1.0 / 255);
+    const TemplateWindows t = whole && whole_windows ? *whole_windows : templateWindows(tpl, vf);
+    const cv::Mat ma = localSum(aligned, vf, win) / t.n;
+    const cv::Mat va = localSum(aligned.mul(aligned), vf, win) / t.n - ma.mul(ma);
+    const cv::Mat cov = localSum(ta, vf, win) / t.n - t.mean.mul(ma);
     cv::Mat denom;
-    cv::sqrt(cv::max(vt, 0).mul(cv::max(va, 0)) + 1e-6, denom);
+    cv::sqrt(cv::max(t.var, 0).mul(cv::max(va, 0)) + 1e-6, denom);
     const cv::Mat ncc = cov / denom;
     // (Not from the fit's noise level: with most of the target covered the
     // photometric fit is the occluder's, and its noise level is the texture's.)
-    const cv::Mat textured = vt > kTexturedStd * kTexturedStd;
-    covered |= textured & (ncc < kOccluderCorrelation) & seen & valid;
+    const cv::Mat textured = t.var > kTexturedStd * kTexturedStd;
+    covered |= textured & (ncc < kOccluderCorrelation) & t.seen & valid;
   }
   cv::dilate(covered, covered, cv::getStructuringElement(cv::MORPH_RECT, cv::Size(win, win)));
   cv::Mat keep;

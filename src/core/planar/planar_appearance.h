@@ -26,6 +26,15 @@ Eigen::Matrix3d templateToPlane(double px_per_m, int level, double w, double h);
 // pixel of image pyramid level `level` (see templateToPlane on pyrDown).
 Eigen::Matrix3d toPyramidPixel(int level);
 
+// A bound (px) on how far the map `M` (a grid pixel to a pixel, as
+// warpPerspective with WARP_INVERSE_MAP takes it) moves any pixel of a grid
+// of `size` along x or y; infinite when part of the grid goes to the horizon.
+double displacementBound(const cv::Matx33d& M, cv::Size size);
+// Whether warping a grid of `size` by `warp` with INTER_NEAREST leaves every
+// pixel where it was.
+bool movesNoPixel(const cv::Matx33d& warp, cv::Size size);
+cv::Matx33d toMatx(const Eigen::Matrix3d& M);
+
 // The pyramid level at which an image seen `ratio` image pixels per template
 // pixel is sampled about 1:1.
 int imageLevelFor(double ratio);
@@ -56,9 +65,51 @@ void sampleImage(const cv::Mat& gray, int level, const Eigen::Matrix3d& M, cv::S
 // part of the template is also taken as covered where its correlation with
 // `aligned` over such a window is low: a textured occluder passes the
 // residual test where the tolerance for misalignment is large, but does not
-// correlate with what it hides.
+// correlate with what it hides. `whole_windows` (optional,
+// TemplateWindows::of(tpl)) spares computing the template's side of that
+// correlation again when `valid` is 255 everywhere.
+struct TemplateWindows;
 cv::Mat unoccludedPixels(const cv::Mat& tpl, const cv::Mat& grad, const cv::Mat& aligned,
-                         const cv::Mat& valid, double k_sigma, double shift);
+                         const cv::Mat& valid, double k_sigma, double shift,
+                         const TemplateWindows* whole_windows = nullptr);
+
+// The template's side of unoccludedPixels' local correlation, over its
+// windows of valid pixels: their share of the window (at least 1e-3), where
+// it is most of the window (`seen`, CV_8U 255), and the template's mean and
+// variance there.
+struct TemplateWindows {
+  cv::Mat n, seen, mean, var;                     // CV_32F but `seen`
+  static TemplateWindows of(const cv::Mat& tpl);  // every pixel of `tpl` valid
+};
+
+// A template (pyramid level) prepared for alignEcc once: smoothed as
+// findTransformECC smooths both images (5x5 Gaussian), its gradients (central
+// differences), and its pixel grid in normalised coordinates (centre 0, half
+// the long side 1) in which the warp is parametrised.
+struct EccTemplate {
+  cv::Mat smoothed, gx, gy;  // CV_32F
+  cv::Mat xn, yn;            // CV_32F: (x - cx) / s, (y - cy) / s
+  double cx = 0, cy = 0, s = 1;
+  static EccTemplate from(const cv::Mat& tpl);  // tpl: CV_32F
+};
+
+// Aligns the template `t` with `image` (CV_32F, the frame on the template's
+// grid; `image_valid` CV_8U, 255 where it shows the frame) by the enhanced
+// correlation coefficient (ECC), as findTransformECC does and with the same
+// meaning of its arguments and result: `warp` (updated) maps a template pixel
+// to where it is in `image`; only the template pixels in `mask` (CV_8U, 255)
+// count, eroded by the smoothing's reach as findTransformECC erodes it; a
+// homography or (`affine`) an affine map; iterations stop as `criteria`
+// says; `*rho` is the correlation before the last update. Unlike
+// findTransformECC the update is inverse compositional (Baker and Matthews):
+// the Jacobian lives on the template, so per alignment the mask's sums are
+// computed once and an iteration warps the frame once, where
+// findTransformECC warps the frame and both its gradients and rebuilds the
+// Jacobian and Hessian. The mask stays on the template grid (a template pixel
+// the warp takes off `image_valid` leaves it). False when it did not
+// converge (too few pixels, or the images are not correlated).
+bool alignEcc(const EccTemplate& t, const cv::Mat& image, const cv::Mat& image_valid, const cv::Mat& mask,
+              bool affine, const cv::TermCriteria& criteria, Eigen::Matrix3d* warp, double* rho);
 
 // Gradient magnitude of `im` (intensity per pixel).
 cv::Mat gradientMagnitude(const cv::Mat& im);

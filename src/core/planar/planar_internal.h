@@ -5,6 +5,8 @@
 
 #include "instant_motion_tracking/core/planar/planar_target.h"
 
+#include "planar_appearance.h"
+
 #include <Eigen/Geometry>
 #include <opencv2/core.hpp>
 
@@ -42,6 +44,8 @@ struct PlanarTargetTracker::Appearance {
   std::vector<cv::Mat> levels;     // CV_32F
   std::vector<cv::Mat> masks;      // CV_8U, 255 where the frame saw the target
   std::vector<cv::Mat> gradients;  // CV_32F, gradient magnitude of each level
+  std::vector<planar_detail::TemplateWindows> windows;  // of each level, for unoccludedPixels
+  std::vector<planar_detail::EccTemplate> ecc;  // each level prepared for the alignment
   double px_per_m = 0;             // level-0 template pixels per metre
 };
 

@@ -7,7 +7,6 @@
 #include "planar_internal.h"
 
 #include <opencv2/imgproc.hpp>
-#include <opencv2/video/tracking.hpp>
 
 #include <algorithm>
 #include <cmath>
@@ -55,13 +54,18 @@ bool PlanarTargetTracker::captureAppearance(const cv::Mat& gray) {
     a->levels.push_back(down);
     a->masks.push_back(mask);
   }
-  for (const cv::Mat& l : a->levels) a->gradients.push_back(gradientMagnitude(l));
+  for (const cv::Mat& l : a->levels) {
+    a->gradients.push_back(gradientMagnitude(l));
+    a->windows.push_back(TemplateWindows::of(l));
+    a->ecc.push_back(EccTemplate::from(l));
+  }
   appearance_ = std::move(a);
   return true;
 }
 
-// Aligns the appearance at placement with `gray` by ECC (OpenCV's
-// findTransformECC, a homography on the rectified target, coarse to fine),
+// Aligns the appearance at placement with `gray` by ECC (alignEcc: the
+// correlation findTransformECC maximises, a homography on the rectified
+// target, coarse to fine),
 // starting from the plane-to-image homography `*G` (updated). Whatever covers
 // part of the target (an occluder) is masked out: after each alignment the
 // template pixels the frame does not explain are found (unoccludedPixels) and,
@@ -103,46 +107,42 @@ bool PlanarTargetTracker::align(const cv::Mat& gray, Eigen::Matrix3d* G, double*
       cv::bitwise_and(valid, seen_here, valid);
     }
     if (keep.empty()) {  // what covers the target where it is predicted
-      keep =
-          unoccludedPixels(tpl, a.gradients[l], warped, valid, options_.refine_outlier_sigma, 2.0);
+      keep = unoccludedPixels(tpl, a.gradients[l], warped, valid, options_.refine_outlier_sigma,
+                              2.0, &a.windows[l]);
     } else {
       cv::resize(keep, keep, tpl.size(), 0, 0, cv::INTER_NEAREST);
       cv::bitwise_and(keep, valid, keep);
     }
-    cv::Mat warp;
+    Eigen::Matrix3d C;
     for (int round = 0; round < 3; ++round) {
-      warp = cv::Mat::eye(3, 3, CV_32F);
+      C.setIdentity();
       const int kept = cv::countNonZero(keep);
       if (kept < 0.1 * valid.total())
         return false;  // hardly anything left to align
       // Less than half the target seen: its perspective is not constrained
       // by the part left (a strip beside an occluder), an affine map is.
       const bool affine = kept < 0.5 * n_valid;
-      try {
-        cv::Mat w = affine ? cv::Mat::eye(2, 3, CV_32F) : warp;
-        *cc = cv::findTransformECC(tpl, warped, w, affine ? cv::MOTION_AFFINE : cv::MOTION_HOMOGRAPHY, criteria,
-                                   keep, 5);
-        if (affine) w.copyTo(warp(cv::Rect(0, 0, 3, 2)));
-      } catch (const cv::Exception&) {
+      if (!alignEcc(a.ecc[l], warped, valid, keep, affine, criteria, &C, cc))
         return false;  // did not converge (uncorrelated images)
-      }
+      const cv::Matx33d warp = toMatx(C);
       cv::Mat aligned, aligned_valid;
       cv::warpPerspective(warped, aligned, warp, tpl.size(),
                           cv::INTER_LINEAR | cv::WARP_INVERSE_MAP);
-      cv::warpPerspective(valid, aligned_valid, warp, tpl.size(),
-                          cv::INTER_NEAREST | cv::WARP_INVERSE_MAP);
-      cv::bitwise_and(aligned_valid, valid, aligned_valid);
+      if (movesNoPixel(warp, tpl.size())) {  // the nearest-pixel warp of `valid` is `valid`
+        aligned_valid = valid;
+      } else {
+        cv::warpPerspective(valid, aligned_valid, warp, tpl.size(),
+                            cv::INTER_NEAREST | cv::WARP_INVERSE_MAP);
+        cv::bitwise_and(aligned_valid, valid, aligned_valid);
+      }
       const cv::Mat now = unoccludedPixels(tpl, a.gradients[l], aligned, aligned_valid,
-                                           options_.refine_outlier_sigma, 0.5);
+                                           options_.refine_outlier_sigma, 0.5, &a.windows[l]);
       // Realigned only when a real part of the target turned out covered.
       const int newly_covered = cv::countNonZero(keep & ~now);
       keep = now;
       if (newly_covered < 0.05 * n_valid) break;
     }
     *visible = static_cast<double>(cv::countNonZero(keep)) / n_valid;
-    Eigen::Matrix3d C;
-    for (int r = 0; r < 3; ++r)
-      for (int c = 0; c < 3; ++c) C(r, c) = warp.at<float>(r, c);
     if (!C.allFinite()) return false;
     *G = *G * A * C * A.inverse();
   }

@@ -53,7 +53,8 @@ cv::Mat smoothedMask(const cv::Mat& mask) {
 
 // Everything of one alignment that depends on the template and the mask
 // only: the steepest-descent images (masked: zero outside), the masked
-// template, and their zero-mean inner products.
+// template, their zero-mean inner products, and what the update solves with
+// them alone (the Hessian's factors, H^-1 b and the template's residual).
 struct MaskedTemplate {
   std::vector<cv::Mat> sd;  // d template / d p_k, times the mask
   cv::Mat tpl;              // smoothed template times the mask
@@ -61,6 +62,9 @@ struct MaskedTemplate {
   Eigen::MatrixXd H;        // zero-mean sd^T sd
   Eigen::VectorXd b;        // zero-mean sd^T tpl
   double tt = 0;            // zero-mean |tpl|^2
+  Eigen::LDLT<Eigen::MatrixXd> H_ldlt;
+  Eigen::VectorXd Hb;       // H^-1 b
+  double lambda_n = 0;      // tt - b^T H^-1 b
 
   MaskedTemplate(const EccTemplate& t, const cv::Mat& mask, int params) {
     n = cv::countNonZero(mask);
@@ -92,6 +96,9 @@ struct MaskedTemplate {
       b(j) = sd[j].dot(tpl) - n * mean(j) * mean_t;
     }
     tt = tpl.dot(tpl) - n * mean_t * mean_t;
+    H_ldlt.compute(H);
+    Hb = H_ldlt.solve(b);
+    lambda_n = tt - b.dot(Hb);
   }
 };
 
@@ -135,12 +142,12 @@ bool alignEcc(const EccTemplate& t, const cv::Mat& image, const cv::Mat& image_v
   double rho = -1, last_rho = -eps;
   cv::Mat warped, warped_valid, centred, outside;
   for (int i = 1; i <= max_iterations && std::abs(rho - last_rho) >= eps; ++i) {
-    const double moved = displacementBound(toMatx(W), t.smoothed.size());
+    const cv::Matx33d Wm = toMatx(W);
+    const double moved = displacementBound(Wm, t.smoothed.size());
     if (moved == 0) {
       warped = image_s;
     } else {
       if (warped.data == image_s.data) warped = cv::Mat();  // not in place
-      const cv::Matx33d Wm = toMatx(W);
       const int flags = cv::INTER_LINEAR | cv::WARP_INVERSE_MAP;
       if (affine) {
         cv::warpAffine(image_s, warped, Wm.get_minor<2, 3>(0, 0), t.smoothed.size(), flags);
@@ -152,7 +159,7 @@ bool alignEcc(const EccTemplate& t, const cv::Mat& image, const cv::Mat& image_v
     // mask keeps pixels whose 3x3 neighbourhood is in `mask` (and so in the
     // frame): a warp moving no pixel by a whole one takes none off.
     if (moved >= 0.99) {
-      cv::warpPerspective(image_valid, warped_valid, toMatx(W), t.smoothed.size(),
+      cv::warpPerspective(image_valid, warped_valid, Wm, t.smoothed.size(),
                           cv::INTER_NEAREST | cv::WARP_INVERSE_MAP);
       cv::bitwise_and(m, ~warped_valid, outside);
       if (cv::countNonZero(outside) > 0) {
@@ -171,13 +178,10 @@ bool alignEcc(const EccTemplate& t, const cv::Mat& image, const cv::Mat& image_v
     last_rho = rho;
     rho = c / std::sqrt(ii * mt.tt);
     if (!std::isfinite(rho)) return false;
-    const Eigen::LDLT<Eigen::MatrixXd> H(mt.H);
-    if (H.info() != Eigen::Success) return false;
-    const Eigen::VectorXd Hb = H.solve(mt.b);
-    const double lambda_n = mt.tt - mt.b.dot(Hb);
-    const double lambda_d = c - a.dot(Hb);
+    if (mt.H_ldlt.info() != Eigen::Success) return false;
+    const double lambda_d = c - a.dot(mt.Hb);
     if (!(lambda_d > 0)) return false;  // uncorrelated: the correlation would be minimised
-    const Eigen::VectorXd dp = H.solve((lambda_n / lambda_d) * a - mt.b);
+    const Eigen::VectorXd dp = mt.H_ldlt.solve((mt.lambda_n / lambda_d) * a - mt.b);
     if (!dp.allFinite()) return false;
     // The template moved by dp matches the frame where W puts it: the frame's
     // pixel for template pixel y is W (N paramWarp(dp) N^-1)^-1 y.

@@ -57,7 +57,7 @@ struct DoorRow {
   bool accept = false;
   std::string phrase;               // in the refusal (its core reason); "" when accepted
   unsigned skip = 0;                // doors that cannot express this row (Door bits)
-  std::string why_skipped;
+  std::string why_skipped = "";  // why those doors cannot
 };
 
 inline const char* kindName(ItemKind k) {

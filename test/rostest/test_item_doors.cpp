@@ -21,7 +21,9 @@
 
 #include <cfloat>
 #include <cmath>
+#include <map>
 #include <string>
+#include <type_traits>
 #include <utility>
 #include <vector>
 
@@ -54,19 +56,41 @@ struct Answer {
   std::string message;
 };
 
-// Sends one request through its service, at the latest frame (stamp 0).
-Answer send(const ItemRequest& r) {
+// One persistent client per service. Persistent connections, because the
+// table sends some 150 requests back to back: roscpp's non-persistent calls
+// open and close a connection each, and that close path has failed calls
+// sporadically (ros/ros_comm#1976). A persistent connection that breaks
+// fails every later call, so a dead service still shows.
+struct Doors {
+  ros::ServiceClient add_region, add_planar_target, add_anchor;
+  std::map<ItemKind, ros::ServiceClient> remove;
+
+  explicit Doors(ros::NodeHandle& nh)
+      : add_region(nh.serviceClient<AddRegion>("add_region", true)),
+        add_planar_target(nh.serviceClient<AddPlanarTarget>("add_planar_target", true)),
+        add_anchor(nh.serviceClient<AddAnchor>("add_anchor", true)),
+        remove{{ItemKind::kRegion, nh.serviceClient<RemoveRegion>("remove_region", true)},
+               {ItemKind::kPlanarTarget, nh.serviceClient<RemoveRegion>("remove_planar_target", true)},
+               {ItemKind::kAnchor, nh.serviceClient<RemoveRegion>("remove_anchor", true)}} {}
+};
+
+// Calls `client` with `srv` and reads the answer every item service gives.
+template <class Srv>
+Answer call(ros::ServiceClient& client, Srv& srv) {
   Answer a;
+  a.called = client.call(srv);
+  a.success = srv.response.success;
+  a.message = srv.response.message;
+  if constexpr (!std::is_same_v<Srv, RemoveRegion>) a.id = srv.response.id;
+  return a;
+}
+
+// Sends one request through its service, at the latest frame (stamp 0).
+Answer send(Doors& doors, const ItemRequest& r) {
   if (r.op == ItemOp::kRemove) {
     RemoveRegion rm;
     rm.request.id = r.id;
-    const char* service = r.kind == ItemKind::kRegion         ? "remove_region"
-                          : r.kind == ItemKind::kPlanarTarget ? "remove_planar_target"
-                                                              : "remove_anchor";
-    a.called = ros::service::call(service, rm);
-    a.success = rm.response.success;
-    a.message = rm.response.message;
-    return a;
+    return call(doors.remove.at(r.kind), rm);
   }
   switch (r.kind) {
     case ItemKind::kRegion: {
@@ -77,11 +101,7 @@ Answer send(const ItemRequest& r) {
       add.request.y = f32(r.box[1]);
       add.request.width = f32(r.box[2]);
       add.request.height = f32(r.box[3]);
-      a.called = ros::service::call("add_region", add);
-      a.success = add.response.success;
-      a.id = add.response.id;
-      a.message = add.response.message;
-      break;
+      return call(doors.add_region, add);
     }
     case ItemKind::kPlanarTarget: {
       AddPlanarTarget add;
@@ -93,11 +113,7 @@ Answer send(const ItemRequest& r) {
       }
       add.request.width_m = f32(r.size[0]);
       add.request.height_m = f32(r.size[1]);
-      a.called = ros::service::call("add_planar_target", add);
-      a.success = add.response.success;
-      a.id = add.response.id;
-      a.message = add.response.message;
-      break;
+      return call(doors.add_planar_target, add);
     }
     case ItemKind::kAnchor: {
       AddAnchor add;
@@ -106,14 +122,10 @@ Answer send(const ItemRequest& r) {
       add.request.u = f32(r.point[0]);
       add.request.v = f32(r.point[1]);
       add.request.depth = f32(r.depth);
-      a.called = ros::service::call("add_anchor", add);
-      a.success = add.response.success;
-      a.id = add.response.id;
-      a.message = add.response.message;
-      break;
+      return call(doors.add_anchor, add);
     }
   }
-  return a;
+  return Answer();
 }
 
 TEST(ItemDoors, EveryRowGetsTheTablesAnswerThroughTheServices) {
@@ -135,6 +147,7 @@ TEST(ItemDoors, EveryRowGetsTheTablesAnswerThroughTheServices) {
   for (const char* s : {"add_region", "remove_region", "add_planar_target", "remove_planar_target", "add_anchor",
                         "remove_anchor"})
     ASSERT_TRUE(ros::service::waitForService(s, ros::Duration(60))) << s;
+  Doors doors(nh);
 
   // The whole bag first: the rows then meet a still graph, the same frames
   // in its cache from the first row to the last.
@@ -156,20 +169,24 @@ TEST(ItemDoors, EveryRowGetsTheTablesAnswerThroughTheServices) {
     SCOPED_TRACE(row.name + ": " + imt::test::describe(row.request));
     std::vector<std::pair<ItemKind, uint32_t>> added;
     for (const ItemRequest& b : row.before) {
-      const Answer a = send(b);
+      const Answer a = send(doors, b);
       ASSERT_TRUE(a.called && a.success) << "before: " << imt::test::describe(b) << ": " << a.message;
       added.emplace_back(b.kind, a.id);
     }
-    const Answer a = send(row.request);
+    const Answer a = send(doors, row.request);
     ASSERT_TRUE(a.called) << "the service died";
     EXPECT_EQ(a.success, row.accept) << a.message;
     if (a.success && row.request.op == ItemOp::kAdd) {
-      if (row.request.id != 0) EXPECT_EQ(a.id, row.request.id);
+      if (row.request.id != 0) {
+        EXPECT_EQ(a.id, row.request.id);
+      }
       added.emplace_back(row.request.kind, a.id);
     }
-    if (!row.accept) EXPECT_NE(a.message.find(row.phrase), std::string::npos) << "got: " << a.message;
+    if (!row.accept) {
+      EXPECT_NE(a.message.find(row.phrase), std::string::npos) << "got: " << a.message;
+    }
     for (const auto& [kind, id] : added) {
-      const Answer removed = send(imt::test::removal(kind, id));
+      const Answer removed = send(doors, imt::test::removal(kind, id));
       EXPECT_TRUE(removed.called && removed.success) << removed.message;
     }
   }

@@ -65,7 +65,7 @@ void drawRegion(cv::Mat* out, const RegionState& s) {
 }
 
 void drawTarget(cv::Mat* out, const PlanarTargetState& s, const CameraModel& k) {
-  if (s.status == TargetStatus::kLost) return;
+  if (!s.hasPose()) return;
   for (const cv::Point2d& c : s.corners)
     if (!std::isfinite(c.x) || !std::isfinite(c.y)) return;
   const bool tracked = s.status == TargetStatus::kTracked;

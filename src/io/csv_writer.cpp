@@ -167,7 +167,7 @@ CsvRow regionRow(const RegionState& s) {
 CsvRow planarTargetRow(const PlanarTargetState& s) {
   CsvRow row;
   row.stamp(s.stamp).integer(s.id);
-  const bool lost = s.status == TargetStatus::kLost;
+  const bool lost = !s.hasPose();
   for (const cv::Point2d& c : s.corners) {
     row.number(lost ? NAN : c.x).number(lost ? NAN : c.y);
   }

@@ -341,7 +341,7 @@ std::vector<geometry_msgs::TransformStamped> planarTargetTransforms(
     const std::string& frame_prefix) {
   std::vector<geometry_msgs::TransformStamped> out;
   for (const PlanarTargetState& s : states) {
-    if (s.status == TargetStatus::kLost) continue;
+    if (!s.hasPose()) continue;
     geometry_msgs::TransformStamped t;
     t.header = header;
     t.child_frame_id = frame_prefix + "planar_target_" + std::to_string(s.id);
@@ -446,7 +446,7 @@ PlanarTargetState fromMsg(const instant_motion_tracking::PlanarTarget& m, double
   s.width_m = m.width_m;
   s.height_m = m.height_m;
   s.status = statusFromName(m.status, targetStatusName,
-                            {TargetStatus::kTracked, TargetStatus::kOutOfView, TargetStatus::kLost},
+                            {TargetStatus::kTracked, TargetStatus::kOutOfView, TargetStatus::kLost, TargetStatus::kNotFound},
                             TargetStatus::kLost);
   s.confidence = m.confidence;
   return s;

@@ -64,7 +64,7 @@ visualization_msgs::MarkerArray planarTargetMarkers(const std::vector<PlanarTarg
                                                     const std_msgs::Header& header) {
   visualization_msgs::MarkerArray out;
   for (const PlanarTargetState& s : states) {
-    if (s.status == TargetStatus::kLost) continue;
+    if (!s.hasPose()) continue;
     visualization_msgs::Marker quad;
     quad.header = header;
     quad.ns = "planar_targets";

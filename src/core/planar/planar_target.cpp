@@ -115,6 +115,8 @@ const char* targetStatusName(TargetStatus s) {
       return "tracked";
     case TargetStatus::kOutOfView:
       return "out_of_view";
+    case TargetStatus::kNotFound:
+      return "not_found";
     case TargetStatus::kLost:
       break;
   }
@@ -152,6 +154,14 @@ std::string PlanarTargetOptions::validate() const {
           refine_search_margin);
   c.inRange("image_memory_mb", image_memory_mb, 0.0, 1e6);
   c.inRange("max_targets", max_targets, 1, 10000);
+  c.inRange("detect_interval", detect_interval, 1, 1000);
+  c.inRange("detect_features", detect_features, 100, 100000);
+  c.inRange("detect_picture_size", detect_picture_size, 64, 4096);
+  c.check(detect_ratio > 0 && detect_ratio < 1, "detect_ratio", "must be in (0, 1)", detect_ratio);
+  c.inRange("detect_min_inliers", detect_min_inliers, 8, 10000);
+  c.check(detect_min_correlation > 0 && detect_min_correlation < 1, "detect_min_correlation", "must be in (0, 1)",
+          detect_min_correlation);
+  c.check(detect_ransac_error > 0, "detect_ransac_error", "must be > 0", detect_ransac_error);
   return c.error();
 }
 

@@ -3,6 +3,7 @@
 #include "instant_motion_tracking/core/item_requests.h"
 
 #include <algorithm>
+#include <cmath>
 
 #include "option_checker.h"
 
@@ -17,7 +18,16 @@ const PlanarTargetState& PlanarTargetManager::advance(Target& t, uint64_t seq) {
   while (t.seq_fwd < seq) {
     const bool valid = cache.cameraMotion(t.seq_fwd, t.seq_fwd + 1, &H);
     ++t.seq_fwd;
-    t.states[t.seq_fwd] = t.forward->step(cache.at(t.seq_fwd), H, valid, cache.image(t.seq_fwd));
+    PlanarTargetState s = t.not_found;
+    if (t.forward) s = t.forward->step(cache.at(t.seq_fwd), H, valid, cache.image(t.seq_fwd));
+    if (t.picture) s = findImageTarget(t, t.seq_fwd, s);
+    t.states[t.seq_fwd] = s;
+  }
+  if (seq < t.seq_bwd && t.picture) {  // an image target is searched for forwards only
+    for (; t.seq_bwd > seq && t.seq_bwd > cache.firstSeq(); --t.seq_bwd) {
+      t.states[t.seq_bwd - 1] = t.not_found;
+      t.states[t.seq_bwd - 1].stamp = cache.at(t.seq_bwd - 1).stamp;
+    }
   }
   if (seq < t.seq_bwd) {
     if (!t.backward) return t.states.at(t.seq_bwd);  // no backward copy: never happens
@@ -77,15 +87,7 @@ bool PlanarTargetManager::add(uint32_t id, double stamp, const std::array<cv::Po
              " image";
     return false;
   }
-  if (targets_.size() >= static_cast<size_t>(options_.max_targets)) {
-    *error = "already " + std::to_string(targets_.size()) +
-             " planar targets (planar_tracking.max_targets): remove some first";
-    return false;
-  }
-  if (id == 0) {
-    id = 1;
-    while (targets_.count(id)) ++id;
-  }
+  if (!checkNewTarget(&id, error)) return false;
   auto tracker =
       PlanarTargetTracker::create(options_, id, corners, width_m, height_m, k, cache.at(seq), error, cache.image(seq));
   if (!tracker) return false;
@@ -98,6 +100,85 @@ bool PlanarTargetManager::add(uint32_t id, double stamp, const std::array<cv::Po
   advance(stored, cache.lastSeq());
   *assigned_id = id;
   return true;
+}
+
+bool PlanarTargetManager::checkNewTarget(uint32_t* id, std::string* error) const {
+  if (targets_.size() >= static_cast<size_t>(options_.max_targets)) {
+    *error = "already " + std::to_string(targets_.size()) +
+             " planar targets (planar_tracking.max_targets): remove some first";
+    return false;
+  }
+  if (*id == 0) {
+    *id = 1;
+    while (targets_.count(*id)) ++*id;
+  }
+  return true;
+}
+
+bool PlanarTargetManager::addImage(uint32_t id, const cv::Mat& picture, double width_m, double height_m,
+                                   const CameraModel& k, uint32_t* assigned_id, std::string* error) {
+  const MotionCache& cache = *cache_;
+  if (id != 0 && targets_.count(id)) {
+    *error = alreadyTrackedError("planar target", id);
+    return false;
+  }
+  if (!(width_m > 0) || !(height_m > 0) || !std::isfinite(width_m) || !std::isfinite(height_m)) {
+    *error = "target size must be positive (got " + std::to_string(width_m) + " x " + std::to_string(height_m) +
+             " m)";
+    return false;
+  }
+  if (!options_.usesImages()) {
+    *error = "image targets need the frames' images (planar_tracking: refine true, model perspective, "
+             "image_memory_mb > 0)";
+    return false;
+  }
+  std::shared_ptr<const ImageTargetDetector> detector = ImageTargetDetector::create(picture, options_, error);
+  if (!detector) return false;
+  if (cache.empty()) {
+    *error = "no frame yet";
+    return false;
+  }
+  if (!checkNewTarget(&id, error)) return false;
+  Target t;
+  t.picture = std::move(detector);
+  t.camera = k;
+  t.not_found.id = id;
+  t.not_found.width_m = width_m;
+  t.not_found.height_m = height_m;
+  t.not_found.status = TargetStatus::kNotFound;
+  t.not_found.confidence = 0;
+  t.not_found.reason = "not found in view yet";
+  const uint64_t seq = cache.lastSeq();
+  t.seq_fwd = t.seq_bwd = t.next_search = seq;
+  PlanarTargetState s = t.not_found;
+  s.stamp = cache.at(seq).stamp;
+  t.states[seq] = findImageTarget(t, seq, s);
+  targets_[id] = std::move(t);
+  *assigned_id = id;
+  return true;
+}
+
+PlanarTargetState PlanarTargetManager::findImageTarget(Target& t, uint64_t seq, const PlanarTargetState& s) {
+  if (s.status == TargetStatus::kTracked || seq < t.next_search) return s;
+  t.next_search = seq + options_.detect_interval;
+  const cv::Mat gray = cache_->image(seq);
+  if (gray.empty()) return s;
+  ImageTargetDetector::Detection found;
+  if (!t.picture->detect(describedFrame(seq), &found)) return s;
+  std::string why;
+  auto tracker = PlanarTargetTracker::create(options_, t.not_found.id, found.corners, t.not_found.width_m,
+                                             t.not_found.height_m, t.camera, cache_->at(seq), &why, gray);
+  if (!tracker) return s;
+  t.forward = std::move(tracker);
+  return t.forward->state();
+}
+
+const ImageTargetDetector::Frame& PlanarTargetManager::describedFrame(uint64_t seq) {
+  if (described_seq_ != seq || described_.size.area() == 0) {
+    described_ = ImageTargetDetector::describeFrame(cache_->image(seq), options_);
+    described_seq_ = seq;
+  }
+  return described_;
 }
 
 std::vector<uint32_t> PlanarTargetManager::ids() const {

@@ -40,8 +40,10 @@
 
 namespace imt {
 
-enum class TargetStatus : uint8_t { kTracked, kOutOfView, kLost };
-const char* targetStatusName(TargetStatus s);  // "tracked", "out_of_view", "lost"
+// kNotFound: an image target not found yet, or not found again since it was
+// lost (no corners, no pose).
+enum class TargetStatus : uint8_t { kTracked, kOutOfView, kLost, kNotFound };
+const char* targetStatusName(TargetStatus s);  // "tracked", "out_of_view", "lost", "not_found"
 
 struct PlanarTargetState {
   uint32_t id = 0;
@@ -58,6 +60,8 @@ struct PlanarTargetState {
   double visible =
       0;  // fraction of the target in view that the alignment saw uncovered (0: not aligned)
   std::string reason;  // why lost
+  // Corners and pose are meaningful (tracked, or predicted out of view).
+  bool hasPose() const { return status == TargetStatus::kTracked || status == TargetStatus::kOutOfView; }
 };
 
 // Empty when the four corners form a usable convex quad (TL, TR, BR, BL in

@@ -41,6 +41,14 @@ struct PlanarTargetOptions {
       0.15;  // by which it must beat the best match elsewhere (no repeated-pattern confusion)
   double image_memory_mb = 512;
   int max_targets = 32;
+  // Image targets (found from a reference picture).
+  int detect_interval = 5;
+  int detect_features = 6000;
+  int detect_picture_size = 480;
+  double detect_ratio = 0.8;
+  int detect_min_inliers = 12;
+  double detect_min_correlation = 0.7;
+  double detect_ransac_error = 3.0;
 
   template <class V>
   void visit(V& v) {
@@ -90,6 +98,22 @@ struct PlanarTargetOptions {
     v("max_targets", max_targets,
       "planar targets tracked at most (each costs milliseconds per frame); add_planar_target and INIT.yaml "
       "are refused beyond");
+    v("detect_interval", detect_interval,
+      "frames between two attempts to find an image target not tracked (not found yet, lost or out of view); "
+      "one attempt describes the frame once for every such target");
+    v("detect_features", detect_features, "ORB keypoints described in a frame for finding image targets");
+    v("detect_picture_size", detect_picture_size,
+      "px; an image target's picture is described at this long side (smaller ones as given)");
+    v("detect_ratio", detect_ratio,
+      "a picture keypoint matches a frame's when its best match is closer than this fraction of the second "
+      "best (Lowe's ratio test)");
+    v("detect_min_inliers", detect_min_inliers,
+      "matches consistent with one homography needed to take an image target as found");
+    v("detect_min_correlation", detect_min_correlation,
+      "ECC correlation the picture, aligned with the frame from the matches' homography, must reach to take an "
+      "image target as found");
+    v("detect_ransac_error", detect_ransac_error,
+      "px; reprojection error within which a match is consistent with the homography (RANSAC)");
   }
   std::string validate() const;
   // Whether the appearance alignment runs, so frames' images are wanted.

@@ -1,0 +1,186 @@
+#include "instant_motion_tracking/core/planar/image_target_detector.h"
+
+#include "instant_motion_tracking/core/planar/planar_target.h"
+
+#include <opencv2/calib3d.hpp>
+#include <opencv2/features2d.hpp>
+#include <opencv2/imgproc.hpp>
+#include <opencv2/video/tracking.hpp>
+
+#include <algorithm>
+#include <cmath>
+
+namespace imt {
+namespace {
+
+cv::Ptr<cv::ORB> orb(int features) {
+  // Eight levels 1.2 apart: a picture described at 480 px is matched from
+  // about 130 px to 480 px on screen, and the frame's own pyramid reaches the
+  // same span upwards.
+  return cv::ORB::create(features, 1.2f, 8);
+}
+
+// A quad a tracker can start from (any physical size: only its shape is
+// checked), partly in view, neither tiny nor many frames wide (a degenerate fit).
+bool usableQuad(const std::array<cv::Point2d, 4>& c, const cv::Size& frame) {
+  if (!validateTargetRequest(c, 1, 1).empty()) return false;
+  double x0 = c[0].x, x1 = x0, y0 = c[0].y, y1 = y0;
+  for (const cv::Point2d& p : c) {
+    x0 = std::min(x0, p.x);
+    x1 = std::max(x1, p.x);
+    y0 = std::min(y0, p.y);
+    y1 = std::max(y1, p.y);
+  }
+  if (!(x1 > 0 && y1 > 0 && x0 < frame.width && y0 < frame.height)) return false;
+  const double extent = std::max(x1 - x0, y1 - y0);
+  return extent >= 16 && extent <= 4.0 * std::max(frame.width, frame.height);
+}
+
+}  // namespace
+
+std::unique_ptr<ImageTargetDetector> ImageTargetDetector::create(const cv::Mat& picture,
+                                                                 const PlanarTargetOptions& options,
+                                                                 std::string* error) {
+  if (std::string e = options.validate(); !e.empty()) {
+    *error = e;
+    return nullptr;
+  }
+  if (picture.empty() || picture.depth() != CV_8U || (picture.channels() != 1 && picture.channels() != 3)) {
+    *error = "the picture must be an 8-bit gray or colour image";
+    return nullptr;
+  }
+  if (picture.cols < 32 || picture.rows < 32) {
+    *error = "the picture is " + std::to_string(picture.cols) + "x" + std::to_string(picture.rows) +
+             " px: at least 32x32 is needed";
+    return nullptr;
+  }
+  cv::Mat gray;
+  if (picture.channels() == 3) cv::cvtColor(picture, gray, cv::COLOR_BGR2GRAY);
+  else gray = picture;
+  std::unique_ptr<ImageTargetDetector> d(new ImageTargetDetector);
+  d->options_ = options;
+  d->picture_size_ = gray.size();
+  d->picture_ = gray.clone();
+  // Described at one size whatever its resolution: ORB keeps no keypoint
+  // within its patch radius of the border, which would leave little of a
+  // small picture.
+  d->scale_ = double(std::max(gray.cols, gray.rows)) / options.detect_picture_size;
+  cv::resize(gray, gray, cv::Size(), 1 / d->scale_, 1 / d->scale_, d->scale_ > 1 ? cv::INTER_AREA : cv::INTER_LINEAR);
+  // The picture is its own whole target: its keypoints may lie anywhere in it.
+  orb(options.detect_features)->detectAndCompute(gray, cv::noArray(), d->keypoints_, d->descriptors_);
+  for (cv::KeyPoint& k : d->keypoints_) k.pt *= d->scale_;
+  if (static_cast<int>(d->keypoints_.size()) < options.detect_min_inliers) {
+    *error = "the picture has " + std::to_string(d->keypoints_.size()) +
+             " keypoints, fewer than planar_tracking.detect_min_inliers (" +
+             std::to_string(options.detect_min_inliers) + "): too little texture to be found";
+    return nullptr;
+  }
+  return d;
+}
+
+ImageTargetDetector::Frame ImageTargetDetector::describeFrame(const cv::Mat& gray,
+                                                              const PlanarTargetOptions& options) {
+  Frame f;
+  f.size = gray.size();
+  f.gray = gray;
+  if (gray.empty()) return f;
+  // Tiles, each with its share of the keypoints: a small target among
+  // stronger texture elsewhere still gets its own. Each tile is described
+  // with a margin (ORB keeps none within its patch of a border) and keeps
+  // the keypoints of its own cells.
+  constexpr int kCols = 4, kRows = 3, kMargin = 40;
+  const int per_tile = std::max(50, options.detect_features / (kCols * kRows));
+  std::vector<cv::Mat> parts;
+  for (int r = 0; r < kRows; ++r) {
+    for (int c = 0; c < kCols; ++c) {
+      const cv::Rect cell(c * gray.cols / kCols, r * gray.rows / kRows, (c + 1) * gray.cols / kCols - c * gray.cols / kCols,
+                          (r + 1) * gray.rows / kRows - r * gray.rows / kRows);
+      const cv::Rect tile = (cell + cv::Size(2 * kMargin, 2 * kMargin) - cv::Point(kMargin, kMargin)) &
+                            cv::Rect(0, 0, gray.cols, gray.rows);
+      std::vector<cv::KeyPoint> kps;
+      cv::Mat desc;
+      orb(per_tile)->detectAndCompute(gray(tile), cv::noArray(), kps, desc);
+      for (int i = 0; i < static_cast<int>(kps.size()); ++i) {
+        kps[i].pt += cv::Point2f(tile.tl());
+        if (!cell.contains(cv::Point(kps[i].pt))) continue;
+        f.keypoints.push_back(kps[i]);
+        parts.push_back(desc.row(i));
+      }
+    }
+  }
+  if (!parts.empty()) cv::vconcat(parts, f.descriptors);
+  return f;
+}
+
+bool ImageTargetDetector::align(const cv::Mat& gray, const cv::Mat& H, Detection* d) const {
+  // The picture at about its size on screen (no finer: ECC would chase
+  // detail the frame does not have), mapped by H scaled to it.
+  const double on_screen = std::sqrt(std::abs(cv::contourArea(std::vector<cv::Point2f>(
+                                         {cv::Point2f(d->corners[0]), cv::Point2f(d->corners[1]),
+                                          cv::Point2f(d->corners[2]), cv::Point2f(d->corners[3])}))));
+  const double s = std::min(1.0, on_screen / std::sqrt(double(picture_.cols) * picture_.rows));
+  if (!(s > 0)) return false;
+  cv::Mat templ;
+  cv::resize(picture_, templ, cv::Size(), s, s, cv::INTER_AREA);
+  if (templ.cols < 16 || templ.rows < 16) return false;
+  cv::Mat warp;
+  cv::Mat(H * cv::Mat(cv::Matx33d(1 / s, 0, 0, 0, 1 / s, 0, 0, 0, 1))).convertTo(warp, CV_32F);
+  double cc = 0;
+  try {
+    cc = cv::findTransformECC(templ, gray, warp, cv::MOTION_HOMOGRAPHY,
+                              cv::TermCriteria(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, 50, 1e-5),
+                              cv::noArray(), 5);
+  } catch (const cv::Exception&) {
+    return false;  // did not converge: no alignment
+  }
+  d->correlation = cc;
+  if (!(cc >= options_.detect_min_correlation)) return false;
+  cv::Mat Hd;
+  cv::Mat(warp * cv::Mat(cv::Matx33f(float(s), 0, 0, 0, float(s), 0, 0, 0, 1))).convertTo(Hd, CV_64F);
+  std::vector<cv::Point2d> from = {{0, 0}, {double(picture_size_.width), 0},
+                                   {double(picture_size_.width), double(picture_size_.height)},
+                                   {0, double(picture_size_.height)}},
+                           to;
+  cv::perspectiveTransform(from, to, Hd);
+  std::copy(to.begin(), to.end(), d->corners.begin());
+  return true;
+}
+
+bool ImageTargetDetector::detect(const Frame& frame, Detection* found) const {
+  if (frame.descriptors.empty() || frame.keypoints.size() < 4) return false;
+  std::vector<std::vector<cv::DMatch>> knn;
+  cv::BFMatcher(cv::NORM_HAMMING).knnMatch(descriptors_, frame.descriptors, knn, 2);
+  std::vector<cv::Point2f> from, to;
+  for (const auto& m : knn) {
+    if (m.size() < 2 || m[0].distance >= options_.detect_ratio * m[1].distance) continue;
+    from.push_back(keypoints_[m[0].queryIdx].pt);
+    to.push_back(frame.keypoints[m[0].trainIdx].pt);
+  }
+  Detection d;
+  d.matches = static_cast<int>(from.size());
+  if (d.matches < options_.detect_min_inliers) return false;
+  std::vector<uchar> inlier;
+  const cv::Mat H =
+      cv::findHomography(from, to, cv::RANSAC, options_.detect_ransac_error, inlier, 2000, 0.995);
+  if (H.empty()) return false;
+  d.inliers = static_cast<int>(std::count(inlier.begin(), inlier.end(), 1));
+
+  if (d.inliers < options_.detect_min_inliers) return false;
+  const std::vector<cv::Point2d> picture_corners = {{0, 0},
+                                                    {double(picture_size_.width), 0},
+                                                    {double(picture_size_.width), double(picture_size_.height)},
+                                                    {0, double(picture_size_.height)}};
+  std::vector<cv::Point2d> corners;
+  cv::perspectiveTransform(picture_corners, corners, H);
+  std::copy(corners.begin(), corners.end(), d.corners.begin());
+  if (!usableQuad(d.corners, frame.size)) return false;
+  // The keypoints propose, the picture's look decides: the homography is
+  // aligned with the frame (ECC), which also takes the corners from the
+  // keypoints' pixel or so to a fraction of one.
+  const bool aligned = align(frame.gray, H, &d);
+  if (!aligned || !usableQuad(d.corners, frame.size)) return false;
+  *found = d;
+  return true;
+}
+
+}  // namespace imt

@@ -264,6 +264,12 @@ bool TrackingSession::addPlanarTarget(uint32_t id, double stamp, const std::arra
   return targets_.add(id, stamp, corners, width_m, height_m, camera(), assigned_id, error);
 }
 
+bool TrackingSession::addImageTarget(uint32_t id, double stamp, const cv::Mat& picture, double width_m,
+                                     double height_m, uint32_t* assigned_id, std::string* error) {
+  flushFor(stamp);
+  return targets_.addImage(id, stamp, picture, width_m, height_m, camera(), assigned_id, error);
+}
+
 bool TrackingSession::removePlanarTarget(uint32_t id, std::string* error) { return targets_.remove(id, error); }
 
 bool TrackingSession::addAnchor(uint32_t id, double stamp, const cv::Point2d& uv, double depth,

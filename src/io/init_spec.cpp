@@ -3,10 +3,12 @@
 #include "instant_motion_tracking/core/item_requests.h"
 #include "instant_motion_tracking/core/planar/planar_target.h"
 
+#include <opencv2/imgcodecs.hpp>
 #include <yaml-cpp/yaml.h>
 
 #include <algorithm>
 #include <charconv>
+#include <filesystem>
 #include <cmath>
 #include <cstdio>
 #include <fstream>
@@ -15,9 +17,12 @@
 #include <set>
 #include <sstream>
 #include <stdexcept>
+#include <type_traits>
 
 namespace imt {
 namespace {
+
+namespace fs = std::filesystem;
 
 // Shortest text that reads back as `v` ("1234.5", not "1234.500000").
 std::string shortest(double v) {
@@ -140,37 +145,40 @@ class EntryReader {
 // `kind` names an item of the list in the core's words ("region").
 template <class Entry, class ReadFn>
 std::vector<Entry> readList(const YAML::Node& root, const char* list, const char* kind,
-                            const std::vector<std::string>& keys, ReadFn read) {
+                            const std::vector<std::string>& keys, ReadFn read,
+                            std::map<uint32_t, std::string>* ids = nullptr) {
   std::vector<Entry> out;
   const YAML::Node n = root[list];
   if (!n || n.IsNull()) return out;  // "regions:" with nothing under it: no entries
   if (!n.IsSequence())
     throw InitError(std::string(list) + " must be a list of entries, got " + describe(n));
-  std::map<uint32_t, size_t> seen;  // id -> index of its first entry
+  // id -> its first entry; `ids` (when given) is shared with other lists.
+  std::map<uint32_t, std::string> own;
+  std::map<uint32_t, std::string>& space = ids ? *ids : own;
   for (size_t i = 0; i < n.size(); ++i) {
-    EntryReader r(n[i], std::string(list) + "[" + std::to_string(i) + "]", keys);
+    const std::string where = std::string(list) + "[" + std::to_string(i) + "]";
+    EntryReader r(n[i], where, keys);
     Entry e;
     e.id = r.start();
-    const auto [it, fresh] = seen.emplace(e.id, i);
-    if (!fresh)
-      r.fail(alreadyTrackedError(kind, e.id) + " (also " + std::string(list) + "[" + std::to_string(it->second) + "])");
-    e.stamp = r.stamp();
+    const auto [it, fresh] = space.emplace(e.id, where);
+    if (!fresh) r.fail(alreadyTrackedError(kind, e.id) + " (also " + it->second + ")");
+    if constexpr (!std::is_same_v<Entry, ImageTargetInit>) e.stamp = r.stamp();
     read(r, &e);
     out.push_back(e);
   }
   return out;
 }
 
-InitSpec parseRoot(const YAML::Node& root) {
-  static const char* kLists = "regions, planar_targets and/or anchors";
+InitSpec parseRoot(const YAML::Node& root, const std::string& source) {
+  static const char* kLists = "regions, planar_targets, image_targets and/or anchors";
   if (!root || root.IsNull())
     throw InitError(std::string("empty (expected a mapping with ") + kLists + ")");
   if (!root.IsMap())
     throw InitError(std::string("expected a mapping with ") + kLists + ", got " + describe(root));
   for (const auto& kv : root) {
     const std::string key = kv.first.IsScalar() ? kv.first.Scalar() : describe(kv.first);
-    if (key != "regions" && key != "planar_targets" && key != "anchors")
-      throw InitError("unknown list '" + key + "' (expected regions, planar_targets, anchors)");
+    if (key != "regions" && key != "planar_targets" && key != "image_targets" && key != "anchors")
+      throw InitError("unknown list '" + key + "' (expected regions, planar_targets, image_targets, anchors)");
   }
   InitSpec spec;
   // Each item is checked by its kind's validator, the one every door runs
@@ -183,6 +191,7 @@ InitSpec parseRoot(const YAML::Node& root) {
         const cv::Rect2d box(e->box[0], e->box[1], e->box[2], e->box[3]);
         if (const std::string why = validateRegionRequest(e->id, box); !why.empty()) r.fail(why);
       });
+  std::map<uint32_t, std::string> target_ids;  // planar and image targets share them
   spec.planar_targets = readList<PlanarTargetInit>(
       root, "planar_targets", "planar target", {"id", "stamp", "corners", "size"},
       [](const EntryReader& r, PlanarTargetInit* e) {
@@ -198,7 +207,26 @@ InitSpec parseRoot(const YAML::Node& root) {
         for (size_t i = 0; i < 4; ++i) quad[i] = cv::Point2d(e->corners[i][0], e->corners[i][1]);
         if (const std::string why = validateTargetRequest(quad, e->size[0], e->size[1]); !why.empty())
           r.fail(why);
-      });
+      },
+      &target_ids);
+  const std::string dir = fs::path(source).parent_path().string();
+  spec.image_targets = readList<ImageTargetInit>(
+      root, "image_targets", "planar target", {"id", "image", "size"},
+      [&dir](const EntryReader& r, ImageTargetInit* e) {
+        const YAML::Node image = r.field("image");
+        if (!image.IsScalar() || image.Scalar().empty())
+          r.fail("image must be a file path, got " + describe(image));
+        e->image = image.Scalar();
+        e->size = r.numbers<2>(r.field("size"), "size");
+        if (!(e->size[0] > 0) || !(e->size[1] > 0) || !std::isfinite(e->size[0]) || !std::isfinite(e->size[1]))
+          r.fail("target size must be positive (got " + std::to_string(e->size[0]) + " x " +
+                 std::to_string(e->size[1]) + " m)");
+        const fs::path p(e->image);
+        e->path = p.is_absolute() || dir.empty() ? p.string() : (fs::path(dir) / p).string();
+        e->picture = cv::imread(e->path, cv::IMREAD_GRAYSCALE);
+        if (e->picture.empty()) r.fail("cannot read image '" + e->path + "'");
+      },
+      &target_ids);
   spec.anchors = readList<AnchorInit>(
       root, "anchors", "anchor", {"id", "stamp", "point", "depth"}, [](const EntryReader& r, AnchorInit* e) {
         e->point = r.numbers<2>(r.field("point"), "point");
@@ -224,7 +252,7 @@ bool parseInitSpec(const std::string& text, const std::string& source, InitSpec*
                ", column " + std::to_string(e.mark.column + 1) + ": " + e.msg;
       return false;
     }
-    *spec = parseRoot(root);
+    *spec = parseRoot(root, source);
     return true;
   } catch (const InitError& e) {
     *error = source + ": " + e.what();

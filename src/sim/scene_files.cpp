@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <fstream>
+#include <filesystem>
 #include <iomanip>
 
 namespace imt {
@@ -139,7 +140,17 @@ bool writeSceneInit(const SceneGenerator& scene, int frame_index, const std::str
     regions << "  - id: " << r.id << "\n    stamp: " << stamp << "\n    box: [" << r.box.x << ", "
             << r.box.y << ", " << r.box.width << ", " << r.box.height << "]\n";
   }
+  std::ostringstream pictures;
+  pictures << std::fixed << std::setprecision(6);
   for (const auto& t : f.targets) {
+    // A target painted from a picture file is given by that picture.
+    const auto plane = std::find_if(scene.options().planes.begin(), scene.options().planes.end(),
+                                    [&](const ScenePlane& p) { return p.kind == ScenePlane::Kind::kTarget && p.id == t.id; });
+    if (plane != scene.options().planes.end() && !plane->texture_file.empty()) {
+      pictures << "  - id: " << t.id << "\n    image: " << std::filesystem::absolute(plane->texture_file).string()
+               << "\n    size: [" << t.width_m << ", " << t.height_m << "]\n";
+      continue;
+    }
     targets << "  - id: " << t.id << "\n    stamp: " << f.stamp << "\n    corners: [";
     for (int c = 0; c < 4; ++c)
       targets << (c ? ", " : "") << "[" << t.corners[c].x << ", " << t.corners[c].y << "]";
@@ -152,8 +163,9 @@ bool writeSceneInit(const SceneGenerator& scene, int frame_index, const std::str
   }
   if (!regions.str().empty()) y << "regions:\n" << regions.str();
   if (!targets.str().empty()) y << "planar_targets:\n" << targets.str();
+  if (!pictures.str().empty()) y << "image_targets:\n" << pictures.str();
   if (!anchors.str().empty()) y << "anchors:\n" << anchors.str();
-  if (regions.str().empty() && targets.str().empty() && anchors.str().empty())
+  if (regions.str().empty() && targets.str().empty() && pictures.str().empty() && anchors.str().empty())
     y << "{}  # this scene has no items to track\n";
   return writeText(path, y.str(), error);
 }

@@ -48,6 +48,8 @@ Renders a seeded synthetic scene into a rosbag (images, camera_info, IMU, /tf_st
   --distortion M:K1,.. lens distortion (camera_info's model and D), e.g. plumb_bob:-0.28,0.07
                        (models plumb_bob, rational_polynomial, equidistant; default none)
   --texture FILE       texture image (repeatable; default procedural)
+  --target-texture FILE  picture painted on the planar target(s) (default procedural); --init
+                       then gives them as image_targets with this picture
   --encoding E         mono8 (default), mono16, bgr8, rgb8, bgra8, rgba8
   --compressed FMT     write sensor_msgs/CompressedImage (png or jpeg) instead of raw
   --no-imu             do not write the IMU topic
@@ -107,7 +109,7 @@ int main(int argc, char** argv) {
       {"--fps", true},         {"--width", true},       {"--height", true},
       {"--seed", true},        {"--start-time", true},  {"--noise", true},
       {"--exposure", true},    {"--supersample", true}, {"--texture", true},
-      {"--distortion", true},
+      {"--target-texture", true}, {"--distortion", true},
       {"--encoding", true},    {"--compressed", true},  {"--no-imu", false},
       {"--image-topic", true}, {"--imu-topic", true},   {"--frame-id", true},
       {"--imu-frame-id", true}, {"--quiet", false},     {"--help", false},
@@ -166,6 +168,9 @@ int main(int argc, char** argv) {
     }
   }
   if (!textures.empty()) opt.texture_files = textures;
+  if (args.count("--target-texture"))
+    for (imt::ScenePlane& p : opt.planes)
+      if (p.kind == imt::ScenePlane::Kind::kTarget) p.texture_file = args["--target-texture"];
 
   const std::string encoding = args.count("--encoding") ? args["--encoding"] : "mono8";
   if (encoding != "mono8" && encoding != "mono16" && encoding != "bgr8" && encoding != "rgb8" &&

@@ -182,7 +182,7 @@ class TrackBagRun {
     // Frames for the planar targets' appearance alignment, only when there
     // are targets: kept within planar_tracking.image_memory_mb, and read
     // again from the bag for the frames beyond it.
-    if (!init_.planar_targets.empty()) {
+    if (!init_.planar_targets.empty() || !init_.image_targets.empty()) {
       session_->setKeepImages(true);
       for (size_t i = 0; i < input_.frameStamps().size(); ++i) frame_index_[input_.frameStamps()[i]] = int(i);
       session_->setImageSource([this](double stamp) { return rereadFrame(stamp); });
@@ -356,7 +356,7 @@ class TrackBagRun {
   // and tracked by the session over every frame of the run, backwards and
   // forwards through its cache; rows in frame order, then id order.
   void trackItems() {
-    if (init_.regions.empty() && init_.planar_targets.empty() && init_.anchors.empty()) return;
+    if (init_.empty()) return;
     Stopwatch clock;
     std::string err;
     uint32_t id;
@@ -375,6 +375,14 @@ class TrackBagRun {
       for (int i = 0; i < 4; ++i) corners[i] = cv::Point2d(t.corners[i][0], t.corners[i][1]);
       if (!session_->addPlanarTarget(t.id, t.stamp, corners, t.size[0], t.size[1], &id, &err))
         refused("planar_targets", t.id, t.frame);
+    }
+    // Image targets are searched for from the first frame on, as live from
+    // the frame they are given at.
+    for (const imt::ImageTargetInit& t : init_.image_targets) {
+      const imt::MotionCache& cache = session_->cache();
+      const double first = cache.empty() ? 0 : cache.at(cache.firstSeq()).stamp;
+      if (!session_->addImageTarget(t.id, first, t.picture, t.size[0], t.size[1], &id, &err))
+        fail(args_.init + ": image_targets (id " + std::to_string(t.id) + ", " + t.path + "): " + err);
     }
     for (const imt::AnchorInit& a : init_.anchors) {
       if (!session_->addAnchor(a.id, a.stamp, cv::Point2d(a.point[0], a.point[1]), a.depth, &id, &err))
@@ -425,7 +433,8 @@ class TrackBagRun {
     if (!out_bag_) return;
     try {
       if (!init_.regions.empty()) out_bag_->write("/regions", f.bag_time, imt::toMsg(r.regions, f.header));
-      if (!init_.planar_targets.empty()) out_bag_->write("/planar_targets", f.bag_time, imt::toMsg(r.targets, f.header));
+      if (!init_.planar_targets.empty() || !init_.image_targets.empty())
+        out_bag_->write("/planar_targets", f.bag_time, imt::toMsg(r.targets, f.header));
       if (!init_.anchors.empty()) out_bag_->write("/anchors", f.bag_time, imt::toMsg(r.anchors, f.header));
       // One /tf message per frame: planar_target_<id> and anchor_<id>.
       tf2_msgs::TFMessage tf;
@@ -564,6 +573,7 @@ class TrackBagRun {
     d["resets"] = resets;
     d["init_entries"] = {{"regions", init_.regions.size()},
                          {"planar_targets", init_.planar_targets.size()},
+                         {"image_targets", init_.image_targets.size()},
                          {"anchors", init_.anchors.size()}};
     d["messages"] = notes_.lines;
     std::string err;

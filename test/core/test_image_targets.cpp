@@ -107,7 +107,7 @@ RenderedRun runRendered(const SceneGenerator& scene, int start, const cv::Mat& p
     const FrameTruth::Target& t = truth.targets.at(0);
     std::vector<PlanarTargetState> states;
     if (i == start) {
-      EXPECT_TRUE(targets.addImage(0, picture, t.width_m, t.height_m, scene.intrinsics(), &id, &err)) << err;
+      EXPECT_TRUE(targets.addImage(0, 0, picture, t.width_m, t.height_m, scene.intrinsics(), &id, &err)) << err;
       EXPECT_TRUE(targets.statesAt(0, {id}, &states, &err)) << err;
     } else {
       states = targets.update();
@@ -167,9 +167,11 @@ TEST_F(RenderedImageTarget, FoundSoonAfterItEntersTheView) {
   EXPECT_LE(latency, 0.5);  // the goal
   EXPECT_EQ(run.tracked_while_out, 0);
   ASSERT_GT(run.errors.size(), 30u);
-  // Once found it is tracked as a target given by its corners (PosterOutOfView:
-  // 0.08 px median once back; 1 px is the drift-free bar).
-  EXPECT_LE(median(run.errors), 1.0);
+  // Once found it is aligned with its picture every frame: measured 0.019 px
+  // median (0.15 px when the template was the frame at detection, which
+  // kept the detection's error). 0.1 px: five times that, still 10x under
+  // the drift-free bar of 1 px.
+  EXPECT_LE(median(run.errors), 0.1);
 }
 
 // Given in view: found at once, predicted while out of view, tracked again
@@ -186,8 +188,9 @@ TEST_F(RenderedImageTarget, FoundAtOnceAndAgainAfterLeaving) {
               median(run.errors), run.errors.size(), run.errors.empty() ? NAN : run.errors.back());
   EXPECT_EQ(run.tracked_while_out, 0);
   ASSERT_GT(run.errors.size(), 100u);
-  // The same bar as a target given by its corners (PosterOutOfView).
-  EXPECT_LE(median(run.errors), 1.0);
+  // Measured 0.020 px median, last 0.12 px; the median's bar as above, the
+  // last frame's the drift-free 1 px of PosterOutOfView.
+  EXPECT_LE(median(run.errors), 0.1);
   EXPECT_LE(run.errors.back(), 1.0);
 }
 
@@ -227,7 +230,7 @@ PotImageResult runPotImage(const std::string& seq, int frames) {
     std::vector<PlanarTargetState> states;
     if (f == kStart) {
       const CameraModel k = CameraModel::fromFieldOfView(gray.cols, gray.rows, 60.0);
-      EXPECT_TRUE(targets.addImage(0, picture, 1.0, h / w, k, &id, &err)) << err;
+      EXPECT_TRUE(targets.addImage(0, 0, picture, 1.0, h / w, k, &id, &err)) << err;
       EXPECT_TRUE(targets.statesAt(0, {id}, &states, &err)) << err;
     } else {
       states = targets.update();
@@ -263,7 +266,9 @@ TEST_P(Pot210ImageTarget, FoundWithinHalfASecondAndTracked) {
   EXPECT_LE((r.found - 10) / 30.0, 0.5);  // the goal (POT's phone videos: 30 frames/s)
   EXPECT_GT(r.scored, 15);
   // The P@5 goal for these clips given by their corners holds for
-  // the picture too.
+  // the picture too (a count: no tolerance under 1.0). Measured: V25_2
+  // median 1.84 px, worst 2.66; V24_7 2.34 / 3.90 (the hand-annotated
+  // corners' own noise is ~2 px).
   EXPECT_EQ(r.precision, 1.0);
 }
 

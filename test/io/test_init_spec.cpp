@@ -1,9 +1,11 @@
 #include "instant_motion_tracking/io/init_spec.h"
 
 #include <gtest/gtest.h>
+#include <opencv2/imgcodecs.hpp>
 
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
 #include <fstream>
 #include <string>
 #include <vector>
@@ -89,6 +91,33 @@ TEST(InitSpec, LoadsAFileAndNamesAMissingOne) {
   EXPECT_EQ(err, path + ": cannot open the init file");
 }
 
+// An image target's picture is read relative to the INIT file.
+TEST(InitSpec, ReadsAnImageTargetsPictureBesideTheFile) {
+  const std::string dir = ::testing::TempDir() + "/imt_init_spec_image";
+  std::filesystem::create_directories(dir + "/pictures");
+  cv::Mat picture(60, 80, CV_8UC1);
+  cv::randu(picture, 0, 255);
+  ASSERT_TRUE(cv::imwrite(dir + "/pictures/poster.png", picture));
+  {
+    std::ofstream out(dir + "/INIT.yaml");
+    out << "image_targets:\n  - {id: 4, image: pictures/poster.png, size: [0.6, 0.45]}\n";
+  }
+  InitSpec spec;
+  std::string err;
+  ASSERT_TRUE(loadInitSpecFile(dir + "/INIT.yaml", &spec, &err)) << err;
+  ASSERT_EQ(spec.image_targets.size(), 1u);
+  const ImageTargetInit& t = spec.image_targets[0];
+  EXPECT_EQ(t.id, 4u);
+  EXPECT_EQ(t.image, "pictures/poster.png");
+  EXPECT_EQ(t.path, dir + "/pictures/poster.png");
+  EXPECT_EQ(t.size[0], 0.6);
+  EXPECT_EQ(t.size[1], 0.45);
+  ASSERT_EQ(t.picture.size(), picture.size());
+  EXPECT_EQ(cv::norm(t.picture, picture, cv::NORM_INF), 0);  // PNG: lossless
+  EXPECT_FALSE(spec.empty());
+  std::filesystem::remove_all(dir);
+}
+
 // Each bad input with the exact message it must produce: the message is the
 // user's only clue, so its wording (entry index, id, field) is asserted fully.
 struct BadInit {
@@ -112,12 +141,12 @@ TEST_P(InitSpecBad, IsRejectedWithAMessageNamingTheEntry) {
 }
 
 const BadInit kBad[] = {
-    {"empty_file", "", "INIT.yaml: empty (expected a mapping with regions, planar_targets and/or anchors)"},
-    {"only_comments", "# nothing\n", "INIT.yaml: empty (expected a mapping with regions, planar_targets and/or anchors)"},
+    {"empty_file", "", "INIT.yaml: empty (expected a mapping with regions, planar_targets, image_targets and/or anchors)"},
+    {"only_comments", "# nothing\n", "INIT.yaml: empty (expected a mapping with regions, planar_targets, image_targets and/or anchors)"},
     {"invalid_yaml", "regions: [\n  - id: 1\n", "INIT.yaml: invalid YAML at line 2, column 3: illegal block entry"},
-    {"top_level_list", "- id: 1\n", "INIT.yaml: expected a mapping with regions, planar_targets and/or anchors, got a list of 1"},
-    {"top_level_scalar", "hello\n", "INIT.yaml: expected a mapping with regions, planar_targets and/or anchors, got 'hello'"},
-    {"unknown_list", "region:\n  - {id: 1, stamp: 1, box: [1, 2, 3, 4]}\n", "INIT.yaml: unknown list 'region' (expected regions, planar_targets, anchors)"},
+    {"top_level_list", "- id: 1\n", "INIT.yaml: expected a mapping with regions, planar_targets, image_targets and/or anchors, got a list of 1"},
+    {"top_level_scalar", "hello\n", "INIT.yaml: expected a mapping with regions, planar_targets, image_targets and/or anchors, got 'hello'"},
+    {"unknown_list", "region:\n  - {id: 1, stamp: 1, box: [1, 2, 3, 4]}\n", "INIT.yaml: unknown list 'region' (expected regions, planar_targets, image_targets, anchors)"},
     {"list_not_a_list", "regions: {id: 1}\n", "INIT.yaml: regions must be a list of entries, got a mapping"},
     {"entry_not_mapping", "regions: [5]\n", "INIT.yaml: regions[0]: expected a mapping with id, stamp, box, got '5'"},
     {"missing_id", "regions:\n  - {stamp: 1, box: [1, 2, 3, 4]}\n", "INIT.yaml: regions[0]: missing field 'id'"},
@@ -153,6 +182,12 @@ const BadInit kBad[] = {
     {"target_size_nan", "planar_targets:\n  - {id: 2, stamp: 1, corners: [[0, 0], [10, 0], [10, 10], [0, 10]], size: [.nan, 0.2]}\n", "INIT.yaml: planar_targets[0] (id 2): target size must be positive (got nan x 0.200000 m)"},
     {"target_duplicate_id", "planar_targets:\n  - {id: 2, stamp: 1, corners: [[0, 0], [10, 0], [10, 10], [0, 10]], size: [1, 1]}\n  - {id: 2, stamp: 1, corners: [[0, 0], [10, 0], [10, 10], [0, 10]], size: [1, 1]}\n", "INIT.yaml: planar_targets[1] (id 2): planar target id 2 is already tracked (also planar_targets[0])"},
     {"target_size_one_number", "planar_targets:\n  - {id: 2, stamp: 1, corners: [[0, 0], [1, 0], [1, 1], [0, 1]], size: [0.3]}\n", "INIT.yaml: planar_targets[0] (id 2): size must have 2 numbers, got 1"},
+    {"image_target_missing_image", "image_targets:\n  - {id: 3, size: [0.6, 0.45]}\n", "INIT.yaml: image_targets[0] (id 3): missing field 'image'"},
+    {"image_target_image_list", "image_targets:\n  - {id: 3, image: [a.png], size: [0.6, 0.45]}\n", "INIT.yaml: image_targets[0] (id 3): image must be a file path, got a list of 1"},
+    {"image_target_with_stamp", "image_targets:\n  - {id: 3, stamp: 1, image: a.png, size: [0.6, 0.45]}\n", "INIT.yaml: image_targets[0] (id 3): unknown key 'stamp' (expected id, image, size)"},
+    {"image_target_size_zero", "image_targets:\n  - {id: 3, image: a.png, size: [0.6, 0]}\n", "INIT.yaml: image_targets[0] (id 3): target size must be positive (got 0.600000 x 0.000000 m)"},
+    {"image_target_unreadable", "image_targets:\n  - {id: 3, image: /nonexistent/poster.png, size: [0.6, 0.45]}\n", "INIT.yaml: image_targets[0] (id 3): cannot read image '/nonexistent/poster.png'"},
+    {"image_target_id_of_a_planar_target", "planar_targets:\n  - {id: 2, stamp: 1, corners: [[0, 0], [10, 0], [10, 10], [0, 10]], size: [1, 1]}\nimage_targets:\n  - {id: 2, image: a.png, size: [0.6, 0.45]}\n", "INIT.yaml: image_targets[0] (id 2): planar target id 2 is already tracked (also planar_targets[0])"},
     {"anchor_missing_point", "anchors:\n  - {id: 5, stamp: 1}\n", "INIT.yaml: anchors[0] (id 5): missing field 'point'"},
     {"anchor_point_three_numbers", "anchors:\n  - {id: 5, stamp: 1, point: [1, 2, 3]}\n", "INIT.yaml: anchors[0] (id 5): point must have 2 numbers, got 3"},
     {"anchor_depth_negative", "anchors:\n  - {id: 5, stamp: 1, point: [1, 2], depth: -1}\n", "INIT.yaml: anchors[0] (id 5): depth must be positive and within 0.01 .. 10000 m (0 = anchors.default_depth), got -1"},

@@ -189,9 +189,9 @@ std::vector<BadCase> badCases() {
       },
       "bad_init.yaml: regions[0] (id 7): unknown key 'bbox' (expected id, stamp, box)");
   add("init_unknown_list", [](D d, D g) { return withInit(d, g, "targets: []\n"); },
-      "bad_init.yaml: unknown list 'targets' (expected regions, planar_targets, anchors)");
+      "bad_init.yaml: unknown list 'targets' (expected regions, planar_targets, image_targets, anchors)");
   add("init_empty", [](D d, D g) { return withInit(d, g, ""); },
-      "bad_init.yaml: empty (expected a mapping with regions, planar_targets and/or anchors)");
+      "bad_init.yaml: empty (expected a mapping with regions, planar_targets, image_targets and/or anchors)");
   add("init_stamp_outside_bag", [](D d, D g) {
         return withInit(d, g, "regions:\n  - {id: 7, stamp: 1234.5, box: [1, 2, 3, 4]}\n");
       },

@@ -161,6 +161,10 @@ class TrackingSession {
                    std::string* error);
   bool addPlanarTarget(uint32_t id, double stamp, const std::array<cv::Point2d, 4>& corners, double width_m,
                        double height_m, uint32_t* assigned_id, std::string* error);
+  // A planar target known by its picture (PlanarTargetManager::addImage),
+  // searched for from the frame nearest `stamp` on.
+  bool addImageTarget(uint32_t id, double stamp, const cv::Mat& picture, double width_m, double height_m, uint32_t* assigned_id,
+                      std::string* error);
   bool removePlanarTarget(uint32_t id, std::string* error);
   bool addAnchor(uint32_t id, double stamp, const cv::Point2d& uv, double depth, uint32_t* assigned_id,
                  std::string* error);

@@ -5,6 +5,7 @@
 //
 //   regions:        [{id: 1, stamp: 1000.0, box: [x, y, width, height]}]
 //   planar_targets: [{id: 1, stamp: 1000.0, corners: [[x0, y0], ..., [x3, y3]], size: [w_m, h_m]}]
+//   image_targets:  [{id: 2, image: poster.png, size: [w_m, h_m]}]   # found from the first frame on
 //   anchors:        [{id: 1, stamp: 1000.0, point: [u, v], depth: 1.6}]   # depth optional (0 = the default)
 //
 // Usage:
@@ -18,6 +19,8 @@
 //   "INIT.yaml: regions[2] (id 7): box must have 4 numbers, got 3".
 // Entries are indexed from 0, in file order.
 #pragma once
+
+#include <opencv2/core.hpp>
 
 #include <array>
 #include <cstdint>
@@ -43,6 +46,16 @@ struct PlanarTargetInit {
   int frame = -1;
 };
 
+// A planar target known by its picture (found whenever in view, from the
+// bag's first frame on). Shares the id space of planar_targets.
+struct ImageTargetInit {
+  uint32_t id = 0;
+  std::string image;              // as written: a relative path is relative to the INIT file
+  std::string path;               // the file read
+  cv::Mat picture;                // its pixels (gray)
+  std::array<double, 2> size{};   // m; width (picture's left -> right), height (top -> bottom)
+};
+
 // A calibration-free 6DoF anchor.
 struct AnchorInit {
   uint32_t id = 0;
@@ -57,9 +70,10 @@ struct AnchorInit {
 struct InitSpec {
   std::vector<RegionInit> regions;
   std::vector<PlanarTargetInit> planar_targets;
+  std::vector<ImageTargetInit> image_targets;
   std::vector<AnchorInit> anchors;
 
-  bool empty() const { return regions.empty() && planar_targets.empty() && anchors.empty(); }
+  bool empty() const { return regions.empty() && planar_targets.empty() && image_targets.empty() && anchors.empty(); }
 };
 
 // Parses INIT.yaml text. False with a one-line message naming `source` and
@@ -72,7 +86,10 @@ struct InitSpec {
 // the words every door uses, e.g. "box has a NaN or infinite value", "corners
 // are counter-clockwise in the image ...", "depth must be positive and
 // within ..."). What needs the frame (the image bounds, max_regions) is
-// checked when the item is added. `spec` is unchanged on error.
+// checked when the item is added. An image target's picture is read here
+// (a relative path from the directory of `source`): a file that cannot be
+// read as an image is an error naming the entry and the path. `spec` is
+// unchanged on error.
 bool parseInitSpec(const std::string& text, const std::string& source, InitSpec* spec,
                    std::string* error);
 bool loadInitSpecFile(const std::string& path, InitSpec* spec, std::string* error);

@@ -203,7 +203,7 @@ std::string validateTargetRequest(const std::array<cv::Point2d, 4>& corners, dou
 std::unique_ptr<PlanarTargetTracker> PlanarTargetTracker::create(
     const PlanarTargetOptions& options, uint32_t id, const std::array<cv::Point2d, 4>& corners,
     double width_m, double height_m, const CameraModel& k, const MotionData& md,
-    std::string* error, const cv::Mat& gray) {
+    std::string* error, const cv::Mat& gray, const cv::Mat& picture) {
   if (std::string e = options.validate(); !e.empty()) {
     *error = e;
     return nullptr;
@@ -239,7 +239,8 @@ std::unique_ptr<PlanarTargetTracker> PlanarTargetTracker::create(
   for (const FeatureMotion& f : md.features) t->last_px_[f.id] = {f.x, f.y};
   t->state_.points = static_cast<int>(t->model_.size());
   t->state_.confidence = std::min(1.0, t->model_.size() / options.confidence_points);
-  if (options.refine && options.model == "perspective" && !gray.empty()) t->captureAppearance(gray);
+  if (options.refine && options.model == "perspective" && (!gray.empty() || !picture.empty()))
+    t->captureAppearance(gray, picture);
   return t;
 }
 

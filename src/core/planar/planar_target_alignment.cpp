@@ -27,19 +27,28 @@ Eigen::Matrix3d PlanarTargetTracker::planeToImage() const {
 
 // The target's look at placement: the frame resampled onto the target plane
 // at about the resolution it was seen with (at most template_size px).
-bool PlanarTargetTracker::captureAppearance(const cv::Mat& gray) {
-  if (gray.empty() || gray.type() != CV_8UC1) return false;
+bool PlanarTargetTracker::captureAppearance(const cv::Mat& gray, const cv::Mat& picture) {
+  if (picture.empty() && (gray.empty() || gray.type() != CV_8UC1)) return false;
   const double w = state_.width_m, h = state_.height_m;
   const double seen = longestEdge(state_.corners);
-  const double long_px = std::min<double>(options_.template_size, seen);
+  // From the frame no finer than it sees the target; a picture is sharp at
+  // any size (the alignment picks the level the frame needs).
+  const double long_px = picture.empty() ? std::min<double>(options_.template_size, seen) : options_.template_size;
   const int W = std::max(16, static_cast<int>(std::lround(long_px * w / std::max(w, h))));
   const int H = std::max(16, static_cast<int>(std::lround(long_px * h / std::max(w, h))));
   auto a = std::make_shared<Appearance>();
   a->px_per_m = W / w;
-  const int li = imageLevelFor(seen / long_px);
   cv::Mat tpl, valid;
-  sampleImage(gray, li, planeToImage() * templateToPlane(a->px_per_m, 0, w, h), cv::Size(W, H),
-              &tpl, &valid, &k_);
+  if (picture.empty()) {
+    const int li = imageLevelFor(seen / long_px);
+    sampleImage(gray, li, planeToImage() * templateToPlane(a->px_per_m, 0, w, h), cv::Size(W, H), &tpl, &valid,
+                &k_);
+  } else {
+    // Its corners are the target's: stretched to the target's proportions.
+    cv::resize(picture, tpl, cv::Size(W, H), 0, 0, cv::INTER_AREA);
+    tpl.convertTo(tpl, CV_32F);
+    valid = cv::Mat(tpl.size(), CV_8U, cv::Scalar(255));
+  }
   cv::Scalar mean, stddev;
   cv::meanStdDev(tpl, mean, stddev, valid);
   if (cv::countNonZero(valid) < 0.5 * W * H || stddev[0] < 2.0)

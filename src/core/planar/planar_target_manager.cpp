@@ -19,6 +19,7 @@ const PlanarTargetState& PlanarTargetManager::advance(Target& t, uint64_t seq) {
     const bool valid = cache.cameraMotion(t.seq_fwd, t.seq_fwd + 1, &H);
     ++t.seq_fwd;
     PlanarTargetState s = t.not_found;
+    s.stamp = cache.at(t.seq_fwd).stamp;
     if (t.forward) s = t.forward->step(cache.at(t.seq_fwd), H, valid, cache.image(t.seq_fwd));
     if (t.picture) s = findImageTarget(t, t.seq_fwd, s);
     t.states[t.seq_fwd] = s;
@@ -115,8 +116,8 @@ bool PlanarTargetManager::checkNewTarget(uint32_t* id, std::string* error) const
   return true;
 }
 
-bool PlanarTargetManager::addImage(uint32_t id, const cv::Mat& picture, double width_m, double height_m,
-                                   const CameraModel& k, uint32_t* assigned_id, std::string* error) {
+bool PlanarTargetManager::addImage(uint32_t id, double stamp, const cv::Mat& picture, double width_m,
+                                   double height_m, const CameraModel& k, uint32_t* assigned_id, std::string* error) {
   const MotionCache& cache = *cache_;
   if (id != 0 && targets_.count(id)) {
     *error = alreadyTrackedError("planar target", id);
@@ -134,10 +135,8 @@ bool PlanarTargetManager::addImage(uint32_t id, const cv::Mat& picture, double w
   }
   std::shared_ptr<const ImageTargetDetector> detector = ImageTargetDetector::create(picture, options_, error);
   if (!detector) return false;
-  if (cache.empty()) {
-    *error = "no frame yet";
-    return false;
-  }
+  uint64_t seq;
+  if (!cache.find(stamp, &seq, error)) return false;
   if (!checkNewTarget(&id, error)) return false;
   Target t;
   t.picture = std::move(detector);
@@ -148,26 +147,27 @@ bool PlanarTargetManager::addImage(uint32_t id, const cv::Mat& picture, double w
   t.not_found.status = TargetStatus::kNotFound;
   t.not_found.confidence = 0;
   t.not_found.reason = "not found in view yet";
-  const uint64_t seq = cache.lastSeq();
   t.seq_fwd = t.seq_bwd = t.next_search = seq;
   PlanarTargetState s = t.not_found;
   s.stamp = cache.at(seq).stamp;
   t.states[seq] = findImageTarget(t, seq, s);
-  targets_[id] = std::move(t);
+  Target& stored = targets_[id] = std::move(t);
+  advance(stored, cache.lastSeq());
   *assigned_id = id;
   return true;
 }
 
 PlanarTargetState PlanarTargetManager::findImageTarget(Target& t, uint64_t seq, const PlanarTargetState& s) {
   if (s.status == TargetStatus::kTracked || seq < t.next_search) return s;
-  t.next_search = seq + options_.detect_interval;
   const cv::Mat gray = cache_->image(seq);
-  if (gray.empty()) return s;
+  if (gray.empty()) return s;  // a frame without its image: the next one is searched
+  t.next_search = seq + options_.detect_interval;
   ImageTargetDetector::Detection found;
   if (!t.picture->detect(describedFrame(seq), &found)) return s;
   std::string why;
   auto tracker = PlanarTargetTracker::create(options_, t.not_found.id, found.corners, t.not_found.width_m,
-                                             t.not_found.height_m, t.camera, cache_->at(seq), &why, gray);
+                                             t.not_found.height_m, t.camera, cache_->at(seq), &why, gray,
+                                             t.picture->picture());
   if (!tracker) return s;
   t.forward = std::move(tracker);
   return t.forward->state();

@@ -56,6 +56,7 @@ class ImageTargetDetector {
   // True with the picture's corners in the frame when it is found there.
   bool detect(const Frame& frame, Detection* found) const;
   cv::Size pictureSize() const { return picture_size_; }
+  const cv::Mat& picture() const { return picture_; }  // CV_8UC1
   size_t keypoints() const { return keypoints_.size(); }
 
  private:

@@ -79,10 +79,12 @@ class PlanarTargetTracker {
   // Fails (nullptr + message) on a bad quad or size, or invalid intrinsics.
   // `gray` (optional, the frame of `md`) gives the target's appearance; without
   // it the appearance is taken from the first frame step() gets an image with.
+  // `picture` (optional, CV_8UC1: an image target's front view, its corners
+  // the target's) gives the appearance instead of the frame.
   static std::unique_ptr<PlanarTargetTracker> create(
       const PlanarTargetOptions& options, uint32_t id, const std::array<cv::Point2d, 4>& corners,
       double width_m, double height_m, const CameraModel& k, const MotionData& md,
-      std::string* error, const cv::Mat& gray = cv::Mat());
+      std::string* error, const cv::Mat& gray = cv::Mat(), const cv::Mat& picture = cv::Mat());
 
   // Moves the target to the frame of `md` (the next frame in either time
   // direction). `H_last_to_this` is the background motion from the last
@@ -111,7 +113,7 @@ class PlanarTargetTracker {
   // Appearance (template) alignment, see planar_target.cpp.
   struct Appearance;
   Eigen::Matrix3d planeToImage() const;
-  bool captureAppearance(const cv::Mat& gray);
+  bool captureAppearance(const cv::Mat& gray, const cv::Mat& picture = cv::Mat());
   bool align(const cv::Mat& gray, Eigen::Matrix3d* G, double* cc, double* visible,
              const cv::Mat& seen = cv::Mat()) const;
   bool search(const cv::Mat& gray, Eigen::Matrix3d* G, cv::Mat* seen) const;

@@ -10,7 +10,7 @@
 //   cache.push(md, &reset);  auto states = targets.update();
 //   targets.add(0, stamp, corners, 0.6, 0.45, camera, &id, &error);
 //   targets.statesAt(stamp, {id}, &states, &error);   // any cached frame
-//   targets.addImage(0, picture, 0.6, 0.45, camera, &id, &error);  // found from its picture
+//   targets.addImage(0, stamp, picture, 0.6, 0.45, camera, &id, &error);  // found from its picture
 // Threading: not thread-safe.
 #pragma once
 
@@ -38,13 +38,13 @@ class PlanarTargetManager {
   bool add(uint32_t id, double stamp, const std::array<cv::Point2d, 4>& corners, double width_m,
            double height_m, const CameraModel& k, uint32_t* assigned_id, std::string* error);
   // An image target: known by its picture (CV_8UC1 or BGR; its corners are
-  // the target's TL, TR, BR, BL), searched for from the newest cached frame
-  // on, every detect_interval frames while it is not tracked (status
-  // not_found until found; lost or out of view: found again), and tracked
-  // like any target once found. Frames before the newest are not_found.
-  // Needs the frames' images (PlanarTargetOptions::usesImages()).
-  bool addImage(uint32_t id, const cv::Mat& picture, double width_m, double height_m, const CameraModel& k,
-                uint32_t* assigned_id, std::string* error);
+  // the target's TL, TR, BR, BL), searched for from the cached frame nearest
+  // `stamp` (0 = the latest) on, every detect_interval frames while it is
+  // not tracked (status not_found until found; lost or out of view: found
+  // again), and tracked like any target once found. Frames before that one
+  // are not_found. Needs the frames' images (PlanarTargetOptions::usesImages()).
+  bool addImage(uint32_t id, double stamp, const cv::Mat& picture, double width_m, double height_m,
+                const CameraModel& k, uint32_t* assigned_id, std::string* error);
   bool remove(uint32_t id, std::string* error);
   // The states of `ids` (empty = all, in id order) at the cached frame
   // nearest `stamp`; false for an unknown id or a stamp outside the cache.

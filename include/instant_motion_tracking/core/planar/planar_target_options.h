@@ -44,7 +44,7 @@ struct PlanarTargetOptions {
   // Image targets (found from a reference picture).
   int detect_interval = 5;
   int detect_features = 6000;
-  int detect_picture_size = 480;
+  int detect_picture_size = 320;
   double detect_ratio = 0.8;
   int detect_min_inliers = 12;
   double detect_min_correlation = 0.7;
@@ -103,7 +103,7 @@ struct PlanarTargetOptions {
       "one attempt describes the frame once for every such target");
     v("detect_features", detect_features, "ORB keypoints described in a frame for finding image targets");
     v("detect_picture_size", detect_picture_size,
-      "px; an image target's picture is described at this long side (smaller ones as given)");
+      "px; an image target's picture is described at this long side (scaled down or up to it)");
     v("detect_ratio", detect_ratio,
       "a picture keypoint matches a frame's when its best match is closer than this fraction of the second "
       "best (Lowe's ratio test)");

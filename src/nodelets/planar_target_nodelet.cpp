@@ -1,8 +1,10 @@
 #include "instant_motion_tracking/ros/planar_target_nodelet.h"
 
 #include "instant_motion_tracking/ros/conversions.h"
+#include "instant_motion_tracking/ros/image_conversion.h"
 #include "instant_motion_tracking/ros/markers.h"
 
+#include <opencv2/imgcodecs.hpp>
 #include <pluginlib/class_list_macros.hpp>
 
 namespace imt {
@@ -15,6 +17,7 @@ void PlanarTargetNodelet::onInit() {
   targets_pub_ = nh.advertise<instant_motion_tracking::PlanarTargetArray>("planar_targets", 10, cb, cb);
   markers_pub_ = nh.advertise<visualization_msgs::MarkerArray>("markers", 10, cb, cb);
   add_srv_ = nh.advertiseService("add_planar_target", &PlanarTargetNodelet::addCb, this);
+  add_image_srv_ = nh.advertiseService("add_image_target", &PlanarTargetNodelet::addImageCb, this);
   remove_srv_ = nh.advertiseService("remove_planar_target", &PlanarTargetNodelet::removeCb, this);
   startSession("camera_info", nh.resolveName("motion_data"), "planar targets", {"tracked", "out_of_view", "lost"});
 }
@@ -56,6 +59,30 @@ bool PlanarTargetNodelet::addCb(instant_motion_tracking::AddPlanarTarget::Reques
   res.id = res.success ? id : 0;
   res.message = res.success ? "tracking planar target " + std::to_string(id) : error;
   if (!res.success) NODELET_WARN_THROTTLE(1.0, "add_planar_target refused: %s", error.c_str());
+  updateSubscription();
+  if (!res.success) res.message += retryHint();
+  return true;
+}
+
+bool PlanarTargetNodelet::addImageCb(instant_motion_tracking::AddImageTarget::Request& req,
+                                     instant_motion_tracking::AddImageTarget::Response& res) {
+  cv::Mat picture;
+  std::string error;
+  if (!req.image_path.empty()) {
+    picture = cv::imread(req.image_path, cv::IMREAD_GRAYSCALE);
+    if (picture.empty()) error = "cannot read image '" + req.image_path + "'";
+  } else if (req.image.data.empty()) {
+    error = "no picture: give image_path or image";
+  } else if (!imageToGray(req.image, &picture, &error)) {
+    error = "image: " + error;
+  }
+  uint32_t id = 0;
+  res.success = error.empty() && session([&](TrackingSession& s) {
+                  return s.addImageTarget(req.id, 0, picture, req.width_m, req.height_m, &id, &error);
+                });
+  res.id = res.success ? id : 0;
+  res.message = res.success ? "looking for image target " + std::to_string(id) : error;
+  if (!res.success) NODELET_WARN_THROTTLE(1.0, "add_image_target refused: %s", error.c_str());
   updateSubscription();
   if (!res.success) res.message += retryHint();
   return true;

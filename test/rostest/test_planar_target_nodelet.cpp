@@ -6,9 +6,11 @@
 // corners and size; the planar_targets topic and the tf2 frame
 // planar_target_<id> are scored against the ground truth. Bad requests must
 // be refused with a message, the nodelet living on.
+#include "instant_motion_tracking/AddImageTarget.h"
 #include "instant_motion_tracking/AddPlanarTarget.h"
 #include "instant_motion_tracking/PlanarTargetArray.h"
 #include "instant_motion_tracking/RemoveRegion.h"
+#include "instant_motion_tracking/sim/scene.h"
 
 #include "rostest_util.h"
 
@@ -18,6 +20,7 @@
 #include <tf2_ros/transform_listener.h>
 #include <Eigen/Geometry>
 #include <nlohmann/json.hpp>
+#include <opencv2/imgcodecs.hpp>
 
 #include <algorithm>
 #include <cmath>
@@ -28,6 +31,7 @@
 
 namespace {
 
+using instant_motion_tracking::AddImageTarget;
 using instant_motion_tracking::AddPlanarTarget;
 using instant_motion_tracking::PlanarTargetArray;
 using instant_motion_tracking::RemoveRegion;
@@ -183,6 +187,108 @@ TEST(PlanarTargetNodelet, PosterAddedThroughTheServiceMatchesGroundTruthOnTopicA
   rm.request.id = id;
   ASSERT_TRUE(ros::service::call("remove_planar_target", rm));
   EXPECT_TRUE(rm.response.success) << rm.response.message;
+}
+
+// The poster painted from a picture (make_scene --target-texture) and given
+// through add_image_target as a sensor_msgs/Image: found within the issue's
+// 0.5 s, then tracked. The previous test's bag ended; this one starts at the
+// same stamps, so the graph resets first (time going backwards).
+TEST(PlanarTargetNodelet, ImageTargetFoundThroughTheService) {
+  char tmpl[] = "/tmp/imt_image_target_XXXXXX";
+  ASSERT_TRUE(mkdtemp(tmpl));
+  const std::string dir = tmpl, png = dir + "/poster.png";
+  const cv::Mat picture = imt::proceduralTexture(1024, 7)(cv::Rect(0, 0, 1024, 768)).clone();
+  ASSERT_TRUE(cv::imwrite(png, picture));
+  imt::test::SceneBag scene;
+  std::string why;
+  ASSERT_TRUE(imt::test::makeSceneBag("--preset poster_orbit --duration 4 --seed 4 --target-texture " + png, &scene,
+                                      &why))
+      << why;
+  const size_t n = scene.frames();
+  ros::NodeHandle nh;
+  ASSERT_TRUE(ros::service::waitForService("add_image_target", ros::Duration(60)));
+  std::vector<PlanarTargetArray> received;
+  ros::Subscriber sub = nh.subscribe<PlanarTargetArray>(
+      "planar_targets", 1000, [&](const instant_motion_tracking::PlanarTargetArrayConstPtr& m) {
+        if (scene.frame_of.count(m->header.stamp)) received.push_back(*m);
+      });
+  const pid_t player = imt::test::playTopics(scene.bag, {"/camera/image_raw", "/camera/camera_info"});
+  ASSERT_GT(player, 0);
+  ASSERT_TRUE(imt::test::spinUntil([&] { return received.size() >= 5; }, 60.0)) << received.size() << " frames";
+
+  // Bad requests: refused with a message that names the problem.
+  AddImageTarget add;
+  add.request.width_m = 0.6f;
+  add.request.height_m = 0.45f;
+  ASSERT_TRUE(ros::service::call("add_image_target", add));
+  EXPECT_FALSE(add.response.success);
+  EXPECT_NE(add.response.message.find("no picture"), std::string::npos) << add.response.message;
+  add.request.image_path = dir + "/missing.png";
+  ASSERT_TRUE(ros::service::call("add_image_target", add));
+  EXPECT_FALSE(add.response.success);
+  EXPECT_NE(add.response.message.find("cannot read image"), std::string::npos) << add.response.message;
+  add.request.image_path = "";
+  add.request.image.encoding = "bogus";
+  add.request.image.width = add.request.image.height = add.request.image.step = 4;
+  add.request.image.data.assign(16, 0);
+  ASSERT_TRUE(ros::service::call("add_image_target", add));
+  EXPECT_FALSE(add.response.success);
+  EXPECT_NE(add.response.message.find("bogus"), std::string::npos) << add.response.message;
+
+  // The picture as a message, at the latest frame.
+  add.request.image.encoding = "mono8";
+  add.request.image.width = picture.cols;
+  add.request.image.height = picture.rows;
+  add.request.image.step = picture.cols;
+  add.request.image.data.assign(picture.data, picture.data + picture.total());
+  ASSERT_TRUE(ros::service::call("add_image_target", add));
+  ASSERT_TRUE(add.response.success) << add.response.message;
+  const uint32_t id = add.response.id;
+  const size_t k_added = scene.frame_of[received.back().header.stamp];
+
+  const bool all = imt::test::spinUntil(
+      [&] { return !received.empty() && received.back().header.stamp == scene.stamp(n - 1); }, 90.0);
+  imt::test::spinUntil([] { return false; }, 0.5);
+  imt::test::stopPlayer(player);
+  ASSERT_TRUE(all) << received.size() << " of " << n;
+
+  int found = -1;
+  std::vector<double> err;
+  for (const PlanarTargetArray& m : received) {
+    const size_t k = scene.frame_of[m.header.stamp];
+    if (k <= k_added || m.targets.empty()) continue;
+    const instant_motion_tracking::PlanarTarget& p = m.targets[0];
+    ASSERT_EQ(p.id, id);
+    if (p.status == "not_found") {
+      EXPECT_LT(found, 0) << "frame " << k << ": not_found after it was found";
+      continue;
+    }
+    if (found < 0) found = static_cast<int>(k);
+    EXPECT_EQ(p.status, "tracked") << "frame " << k;
+    const nlohmann::json& t = scene.frame(k)["planar_targets"][0];
+    double sq = 0;
+    for (int c = 0; c < 4; ++c)
+      sq += std::pow(p.corners[c].x - t["corners"][c][0].get<double>(), 2) +
+            std::pow(p.corners[c].y - t["corners"][c][1].get<double>(), 2);
+    err.push_back(std::sqrt(sq / 4));
+  }
+  std::fprintf(stderr, "PlanarTargetNodelet image target: added at frame %zu, found at %d; %zu frames, corner error "
+                       "median %.3f px, last %.3f px\n",
+               k_added, found, err.size(), percentile(err, 0.5), err.empty() ? NAN : err.back());
+  ASSERT_GE(found, 0) << "never found";
+  // The poster is in view when given: found within the 0.5 s (15
+  // frames at 30 frames/s).
+  EXPECT_LE(found - static_cast<int>(k_added), 15);
+  // The bars of the target given by its corners above (the core measures
+  // ~0.02 px on this scene; a frame whose image comes late costs accuracy).
+  EXPECT_LE(percentile(err, 0.5), 0.5);
+  EXPECT_LE(err.back(), 1.0);
+
+  RemoveRegion rm;
+  rm.request.id = id;
+  ASSERT_TRUE(ros::service::call("remove_planar_target", rm));
+  EXPECT_TRUE(rm.response.success) << rm.response.message;
+  std::system(("rm -rf " + dir).c_str());
 }
 
 }  // namespace

@@ -17,6 +17,9 @@
 //   tf2                  <frame_prefix>planar_target_<id>, child of the image frame (~publish_tf)
 // Services:
 //   add_planar_target    AddPlanarTarget: corners TL, TR, BR, BL at a cached stamp (0 = latest) + size
+//   add_image_target     AddImageTarget: a picture (file or sensor_msgs/Image) + size, found from the
+//                        latest frame on (detection every ~planar_tracking/detect_interval frames
+//                        while not tracked, on the frame's own thread)
 //   remove_planar_target RemoveRegion
 // Parameters (private namespace; config/default.yaml): cache_seconds, default_hfov_deg,
 //   planar_tracking/*, publish_tf, frame_prefix, queue_size, always_subscribe, diagnostic_period.
@@ -27,6 +30,7 @@
 // the nodelet lives on.
 #pragma once
 
+#include "instant_motion_tracking/AddImageTarget.h"
 #include "instant_motion_tracking/AddPlanarTarget.h"
 #include "instant_motion_tracking/RemoveRegion.h"
 #include "instant_motion_tracking/ros/session_nodelet.h"
@@ -49,12 +53,14 @@ class PlanarTargetNodelet : public SessionNodelet {
   void onResult(const FrameResult& result, const std_msgs::Header& header, const ros::WallTime& received) override;
   bool addCb(instant_motion_tracking::AddPlanarTarget::Request& req,
              instant_motion_tracking::AddPlanarTarget::Response& res);
+  bool addImageCb(instant_motion_tracking::AddImageTarget::Request& req,
+                  instant_motion_tracking::AddImageTarget::Response& res);
   bool removeCb(instant_motion_tracking::RemoveRegion::Request& req,
                 instant_motion_tracking::RemoveRegion::Response& res);
 
   std::unique_ptr<tf2_ros::TransformBroadcaster> tf_;
   ros::Publisher targets_pub_, markers_pub_;
-  ros::ServiceServer add_srv_, remove_srv_;
+  ros::ServiceServer add_srv_, add_image_srv_, remove_srv_;
 };
 
 }  // namespace imt

@@ -46,7 +46,7 @@ struct PlanarTargetOptions {
   int detect_features = 6000;
   int detect_picture_size = 320;
   double detect_ratio = 0.8;
-  int detect_min_inliers = 12;
+  int detect_min_inliers = 8;
   double detect_min_correlation = 0.7;
   double detect_ransac_error = 3.0;
 

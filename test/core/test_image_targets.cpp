@@ -87,18 +87,22 @@ struct RenderedRun {
   int found = -1;       // first frame it is tracked
   std::vector<double> errors;  // corner RMS on tracked frames with the poster >= 40% in view
   int tracked_while_out = 0;   // tracked frames with no part of the poster in view
+  int other_found = 0;         // frames the absent picture (when given) was not not_found
 };
 
 // Frames `start`.. of `scene` through the motion analysis; the image target
-// added at `start`.
-RenderedRun runRendered(const SceneGenerator& scene, int start, const cv::Mat& picture) {
+// added at `start`, and `absent` (a picture the scene does not show) beside
+// it when given.
+RenderedRun runRendered(const SceneGenerator& scene, int start, const cv::Mat& picture,
+                        const cv::Mat& absent = cv::Mat()) {
   RenderedRun run;
   MotionAnalyzer analyzer{MotionAnalysisOptions()};
   MotionCache cache(0.0);
   cache.setImageBudget(size_t(1) << 30);
   PlanarTargetManager targets{PlanarTargetOptions(), &cache};
   std::string err;
-  uint32_t id = 0;
+  uint32_t id = 0, other = 0;
+  const size_t n = absent.empty() ? 1 : 2;
   for (int i = start; i < scene.frameCount(); ++i) {
     std::string reset;
     const cv::Mat frame = scene.renderFrame(i);
@@ -108,15 +112,18 @@ RenderedRun runRendered(const SceneGenerator& scene, int start, const cv::Mat& p
     std::vector<PlanarTargetState> states;
     if (i == start) {
       EXPECT_TRUE(targets.addImage(0, 0, picture, t.width_m, t.height_m, scene.intrinsics(), &id, &err)) << err;
-      EXPECT_TRUE(targets.statesAt(0, {id}, &states, &err)) << err;
+      if (n == 2)
+        EXPECT_TRUE(targets.addImage(0, 0, absent, t.width_m, t.height_m, scene.intrinsics(), &other, &err)) << err;
+      EXPECT_TRUE(targets.statesAt(0, {}, &states, &err)) << err;
     } else {
       states = targets.update();
     }
-    if (states.size() != 1) {
+    if (states.size() != n) {
       ADD_FAILURE() << "frame " << i << ": " << states.size() << " states";
       return run;
     }
     const PlanarTargetState& s = states[0];
+    if (n == 2) run.other_found += states[1].status != TargetStatus::kNotFound;
     if (run.entered < 0 && t.visible_fraction >= 0.5) run.entered = i;
     if (s.status != TargetStatus::kTracked) continue;
     if (run.found < 0) run.found = i;
@@ -175,9 +182,12 @@ TEST_F(RenderedImageTarget, FoundSoonAfterItEntersTheView) {
 }
 
 // Given in view: found at once, predicted while out of view, tracked again
-// once back.
+// once back; beside it another image target whose picture the scene does
+// not show is never found.
 TEST_F(RenderedImageTarget, FoundAtOnceAndAgainAfterLeaving) {
-  const RenderedRun run = runRendered(*scene_, 0, picture_);
+  const cv::Mat absent = proceduralTexture(1024, 8)(cv::Rect(0, 0, 1024, 768)).clone();
+  const RenderedRun run = runRendered(*scene_, 0, picture_, absent);
+  EXPECT_EQ(run.other_found, 0);
   ASSERT_EQ(run.found, 0) << "the poster is in view when given";
   std::vector<double> back;  // errors after the poster was out of view
   int out = -1;

@@ -67,7 +67,8 @@ std::unique_ptr<ImageTargetDetector> ImageTargetDetector::create(const cv::Mat& 
   d->scale_ = double(std::max(gray.cols, gray.rows)) / options.detect_picture_size;
   cv::resize(gray, gray, cv::Size(), 1 / d->scale_, 1 / d->scale_, d->scale_ > 1 ? cv::INTER_AREA : cv::INTER_LINEAR);
   // The picture is its own whole target: its keypoints may lie anywhere in it.
-  orb(options.detect_features)->detectAndCompute(gray, cv::noArray(), d->keypoints_, d->descriptors_);
+  // Its strongest keypoints only: matching costs keypoints x the frame's.
+  orb(options.detect_picture_features)->detectAndCompute(gray, cv::noArray(), d->keypoints_, d->descriptors_);
   for (cv::KeyPoint& k : d->keypoints_) k.pt *= d->scale_;
   if (static_cast<int>(d->keypoints_.size()) < options.detect_min_inliers) {
     *error = "the picture has " + std::to_string(d->keypoints_.size()) +
@@ -148,13 +149,15 @@ bool ImageTargetDetector::align(const cv::Mat& gray, const cv::Mat& H, Detection
 
 bool ImageTargetDetector::detect(const Frame& frame, Detection* found) const {
   if (frame.descriptors.empty() || frame.keypoints.size() < 4) return false;
+  // Each frame keypoint's two nearest picture keypoints (brute force: FLANN's
+  // LSH index was faster but let a false match through on POT V24_7).
   std::vector<std::vector<cv::DMatch>> knn;
-  cv::BFMatcher(cv::NORM_HAMMING).knnMatch(descriptors_, frame.descriptors, knn, 2);
+  cv::BFMatcher(cv::NORM_HAMMING).knnMatch(frame.descriptors, descriptors_, knn, 2);
   std::vector<cv::Point2f> from, to;
   for (const auto& m : knn) {
     if (m.size() < 2 || m[0].distance >= options_.detect_ratio * m[1].distance) continue;
-    from.push_back(keypoints_[m[0].queryIdx].pt);
-    to.push_back(frame.keypoints[m[0].trainIdx].pt);
+    from.push_back(keypoints_[m[0].trainIdx].pt);
+    to.push_back(frame.keypoints[m[0].queryIdx].pt);
   }
   Detection d;
   d.matches = static_cast<int>(from.size());

@@ -157,6 +157,7 @@ std::string PlanarTargetOptions::validate() const {
   c.inRange("detect_interval", detect_interval, 1, 1000);
   c.inRange("detect_features", detect_features, 100, 100000);
   c.inRange("detect_picture_size", detect_picture_size, 64, 4096);
+  c.inRange("detect_picture_features", detect_picture_features, 50, 100000);
   c.check(detect_ratio > 0 && detect_ratio < 1, "detect_ratio", "must be in (0, 1)", detect_ratio);
   c.inRange("detect_min_inliers", detect_min_inliers, 8, 10000);
   c.check(detect_min_correlation > 0 && detect_min_correlation < 1, "detect_min_correlation", "must be in (0, 1)",

@@ -45,9 +45,10 @@ struct PlanarTargetOptions {
   int detect_interval = 5;
   int detect_features = 6000;
   int detect_picture_size = 320;
+  int detect_picture_features = 1000;
   double detect_ratio = 0.8;
   int detect_min_inliers = 8;
-  double detect_min_correlation = 0.7;
+  double detect_min_correlation = 0.9;
   double detect_ransac_error = 3.0;
 
   template <class V>
@@ -104,6 +105,9 @@ struct PlanarTargetOptions {
     v("detect_features", detect_features, "ORB keypoints described in a frame for finding image targets");
     v("detect_picture_size", detect_picture_size,
       "px; an image target's picture is described at this long side (scaled down or up to it)");
+    v("detect_picture_features", detect_picture_features,
+      "ORB keypoints of an image target's picture (its strongest): a search costs these times detect_features "
+      "matches");
     v("detect_ratio", detect_ratio,
       "a picture keypoint matches a frame's when its best match is closer than this fraction of the second "
       "best (Lowe's ratio test)");

@@ -3,6 +3,7 @@
 // it (see planar_appearance.h).
 #include "planar_appearance.h"
 
+#include <Eigen/Core>
 #include <opencv2/imgproc.hpp>
 
 #include <algorithm>
@@ -67,28 +68,26 @@ float quantile(const cv::Mat& m, const cv::Mat& mask, bool whole, double q,
   return v[k - below];
 }
 
-// Sums over the pixels of `mask` (CV_8U, nonzero) of a, b (CV_32F), their
+// Sums over the pixels of `mask` (CV_8U, 255 / 0) of a, b (CV_32F), their
 // squares and their product: a masked meanStdDev of both and their
-// covariance in one pass.
+// covariance in one pass (a row's sums in float, vectorised; the rows' in
+// double).
 struct PairSums {
   double n = 0, a = 0, b = 0, aa = 0, bb = 0, ab = 0;
 };
 PairSums pairSums(const cv::Mat& a, const cv::Mat& b, const cv::Mat& mask) {
+  cv::Mat weight;
+  mask.convertTo(weight, CV_32F, 1.0 / 255);
   PairSums s;
+  using Row = Eigen::Map<const Eigen::ArrayXf>;
   for (int r = 0; r < a.rows; ++r) {
-    const float* pa = a.ptr<float>(r);
-    const float* pb = b.ptr<float>(r);
-    const uchar* pk = mask.ptr<uchar>(r);
-    for (int c = 0; c < a.cols; ++c) {
-      if (!pk[c]) continue;
-      const double x = pa[c], y = pb[c];
-      s.n += 1;
-      s.a += x;
-      s.b += y;
-      s.aa += x * x;
-      s.bb += y * y;
-      s.ab += x * y;
-    }
+    const Row w(weight.ptr<float>(r), a.cols), x(a.ptr<float>(r), a.cols), y(b.ptr<float>(r), a.cols);
+    s.n += w.sum();
+    s.a += (w * x).sum();
+    s.b += (w * y).sum();
+    s.aa += (w * x * x).sum();
+    s.bb += (w * y * y).sum();
+    s.ab += (w * x * y).sum();
   }
   return s;
 }

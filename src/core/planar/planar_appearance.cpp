@@ -357,12 +357,21 @@ cv::Mat unoccludedPixels(const cv::Mat& tpl, const cv::Mat& grad, const cv::Mat&
     cv::Mat vf;  // empty: every pixel valid
     if (!whole) valid.convertTo(vf, CV_32F, 1.0 / 255);
     const TemplateWindows t = whole && whole_windows ? *whole_windows : templateWindows(tpl, vf);
-    const cv::Mat ma = localSum(aligned, vf, win) / t.n;
-    const cv::Mat va = localSum(aligned.mul(aligned), vf, win) / t.n - ma.mul(ma);
-    const cv::Mat cov = localSum(tpl.mul(aligned), vf, win) / t.n - t.mean.mul(ma);
-    cv::Mat denom;
-    cv::sqrt(cv::max(t.var, 0).mul(cv::max(va, 0)) + 1e-6, denom);
-    const cv::Mat ncc = cov / denom;
+    const cv::Mat sum_a = localSum(aligned, vf, win), sum_aa = localSum(aligned.mul(aligned), vf, win),
+                  sum_ta = localSum(tpl.mul(aligned), vf, win);
+    // The window correlation, pixel by pixel in one pass (an Eigen expression
+    // over the images, all continuous: boxFilter's and TemplateWindows').
+    cv::Mat ncc(tpl.size(), CV_32F);
+    {
+      using Image = Eigen::Map<const Eigen::ArrayXf>;
+      const Eigen::Index n = static_cast<Eigen::Index>(tpl.total());
+      CV_Assert(t.n.isContinuous() && t.mean.isContinuous() && t.var.isContinuous());
+      const Image wn(t.n.ptr<float>(), n), tm(t.mean.ptr<float>(), n), tv(t.var.ptr<float>(), n);
+      const Eigen::ArrayXf ma = Image(sum_a.ptr<float>(), n) / wn;
+      const auto va = Image(sum_aa.ptr<float>(), n) / wn - ma * ma;
+      const auto cov = Image(sum_ta.ptr<float>(), n) / wn - tm * ma;
+      Eigen::Map<Eigen::ArrayXf>(ncc.ptr<float>(), n) = cov / (tv.max(0.0f) * va.max(0.0f) + 1e-6f).sqrt();
+    }
     // (Not from the fit's noise level: with most of the target covered the
     // photometric fit is the occluder's, and its noise level is the texture's.)
     const cv::Mat textured = t.var > kTexturedStd * kTexturedStd;

@@ -54,7 +54,7 @@ float quantile(const cv::Mat& m, const cv::Mat& mask, bool whole, double q,
   const auto leading = [](float f) {
     uint32_t b;
     std::memcpy(&b, &f, sizeof b);
-    return b >> kShift;
+    return (b & 0x7fffffffu) >> kShift;  // -0 as 0
   };
   std::array<uint32_t, 1 << (32 - kShift)> histogram{};
   for (size_t i = 0; i < n; ++i) ++histogram[leading(v[i])];

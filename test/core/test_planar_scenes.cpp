@@ -226,7 +226,12 @@ OccludedRun trackOccludedPoster(uint64_t seed) {
 // seed's worst is held to "not dragged" and their mean to the precision.
 TEST(PosterOccluded, CardSlidingAcrossThePosterDoesNotDragIt) {
   double partly_sum = 0, mostly_sum = 0;
-  for (uint64_t seed = 1; seed <= 4; ++seed) {
+  // IMT_TEST_SEEDS=N runs seeds 1..N instead: a change that moves the
+  // rounding moves single seeds' worst frames either way, and four seeds'
+  // mean does not tell such noise from a real change.
+  const char* seeds_env = std::getenv("IMT_TEST_SEEDS");
+  const int seeds = seeds_env ? std::max(1, std::atoi(seeds_env)) : 4;
+  for (uint64_t seed = 1; seed <= static_cast<uint64_t>(seeds); ++seed) {
     const OccludedRun r = trackOccludedPoster(seed);
     ASSERT_FALSE(HasFatalFailure());
     EXPECT_GE(r.most_covered, 0.7) << "seed " << seed;  // the scene does what it says
@@ -249,8 +254,10 @@ TEST(PosterOccluded, CardSlidingAcrossThePosterDoesNotDragIt) {
   // occlusion masks, 6.47 and 14.2. The bar leaves 2.5 times the mean for
   // another CPU's rounding. While four fifths are covered the camera motion
   // and the few features left carry it to within a few px.
-  EXPECT_LE(partly_sum / 4, 1.5);
-  EXPECT_LE(mostly_sum / 4, 7.0);
+  std::printf("occluded poster, seeds 1-%d: mean worst %.2f px up to 40%% covered, %.2f px more covered\n",
+              seeds, partly_sum / seeds, mostly_sum / seeds);
+  EXPECT_LE(partly_sum / seeds, 1.5);
+  EXPECT_LE(mostly_sum / seeds, 7.0);
 }
 
 // The camera pans away until the poster is entirely out of view for ~1 s,

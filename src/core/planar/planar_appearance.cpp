@@ -3,9 +3,13 @@
 // it (see planar_appearance.h).
 #include "planar_appearance.h"
 
+#include <Eigen/Core>
 #include <opencv2/imgproc.hpp>
 
 #include <algorithm>
+#include <array>
+#include <cstdint>
+#include <cstring>
 #include <cmath>
 #include <functional>
 #include <limits>
@@ -22,8 +26,12 @@ cv::Matx33d toMatx(const Eigen::Matrix3d& M) {
 
 namespace {
 
-// The value below which a fraction `q` of `m`'s pixels under `mask` lie
-// (`whole`: the mask is 255 everywhere; `buffer`: scratch space).
+// The value below which a fraction `q` of `m`'s pixels under `mask` lie,
+// for `m` >= 0 (`whole`: the mask is 255 everywhere; `buffer`: scratch
+// space). Exactly std::nth_element's answer, found faster: non-negative
+// floats order as their bit patterns, so a histogram of the leading bits
+// (sign, exponent, 3 bits of mantissa) says which values share the wanted
+// one's, and nth_element runs among those few only.
 float quantile(const cv::Mat& m, const cv::Mat& mask, bool whole, double q,
                std::vector<float>* buffer) {
   std::vector<float>& v = *buffer;
@@ -42,8 +50,46 @@ float quantile(const cv::Mat& m, const cv::Mat& mask, bool whole, double q,
   }
   if (n == 0) return 0;
   const size_t k = std::min(n - 1, static_cast<size_t>(q * n));
-  std::nth_element(v.begin(), v.begin() + k, v.begin() + n);
-  return v[k];
+  constexpr int kShift = 20;  // 32 - 12 leading bits
+  const auto leading = [](float f) {
+    uint32_t b;
+    std::memcpy(&b, &f, sizeof b);
+    return (b & 0x7fffffffu) >> kShift;  // -0 as 0
+  };
+  std::array<uint32_t, 1 << (32 - kShift)> histogram{};
+  for (size_t i = 0; i < n; ++i) ++histogram[leading(v[i])];
+  uint32_t bin = 0;
+  size_t below = 0;  // values in lower bins
+  while (below + histogram[bin] <= k) below += histogram[bin++];
+  size_t in_bin = 0;
+  for (size_t i = 0; i < n; ++i)
+    if (leading(v[i]) == bin) v[in_bin++] = v[i];
+  std::nth_element(v.begin(), v.begin() + (k - below), v.begin() + in_bin);
+  return v[k - below];
+}
+
+// Sums over the pixels of `mask` (CV_8U, 255 / 0) of a, b (CV_32F), their
+// squares and their product: a masked meanStdDev of both and their
+// covariance in one pass (a row's sums in float, vectorised; the rows' in
+// double).
+struct PairSums {
+  double n = 0, a = 0, b = 0, aa = 0, bb = 0, ab = 0;
+};
+PairSums pairSums(const cv::Mat& a, const cv::Mat& b, const cv::Mat& mask) {
+  cv::Mat weight;
+  mask.convertTo(weight, CV_32F, 1.0 / 255);
+  PairSums s;
+  using Row = Eigen::Map<const Eigen::ArrayXf>;
+  for (int r = 0; r < a.rows; ++r) {
+    const Row w(weight.ptr<float>(r), a.cols), x(a.ptr<float>(r), a.cols), y(b.ptr<float>(r), a.cols);
+    s.n += w.sum();
+    s.a += (w * x).sum();
+    s.b += (w * y).sum();
+    s.aa += (w * x * x).sum();
+    s.bb += (w * y * y).sum();
+    s.ab += (w * x * y).sum();
+  }
+  return s;
 }
 
 // The side (px, odd) of the windows unoccludedPixels looks at on `tpl`.
@@ -273,17 +319,18 @@ cv::Mat unoccludedPixels(const cv::Mat& tpl, const cv::Mat& grad, const cv::Mat&
                          const cv::Mat& valid, double k_sigma, double shift,
                          const TemplateWindows* whole_windows) {
   const bool whole = cv::countNonZero(valid) == static_cast<int>(valid.total());
-  const cv::Mat ta = tpl.mul(aligned);
-  cv::Mat fit = valid.clone(), resid;
+  cv::Mat fit = valid.clone(), predicted, resid;
   double sigma = 0;
   std::vector<float> buffer;
   for (int it = 0; it < 3; ++it) {
-    cv::Scalar mt, st, mi, si;
-    cv::meanStdDev(tpl, mt, st, fit);
-    cv::meanStdDev(aligned, mi, si, fit);
-    const double cov = cv::mean(ta, fit)[0] - mt[0] * mi[0];
-    const double gain = si[0] > 1e-3 ? cov / (si[0] * si[0]) : 1.0;
-    resid = cv::abs(tpl - (gain * aligned + (mt[0] - gain * mi[0])));
+    const PairSums s = pairSums(tpl, aligned, fit);
+    const double n = std::max(1.0, s.n);
+    const double mt = s.a / n, mi = s.b / n;
+    const double var_i = std::max(0.0, s.bb / n - mi * mi);
+    const double cov = s.ab / n - mt * mi;
+    const double gain = var_i > 1e-6 ? cov / var_i : 1.0;
+    aligned.convertTo(predicted, CV_32F, gain, mt - gain * mi);
+    cv::absdiff(tpl, predicted, resid);
     // The next fit from the best half; after the last, the noise level from
     // the best quarter (|N(0, s)| has its 25% quantile at 0.319 s).
     if (it < 2) {
@@ -310,12 +357,21 @@ cv::Mat unoccludedPixels(const cv::Mat& tpl, const cv::Mat& grad, const cv::Mat&
     cv::Mat vf;  // empty: every pixel valid
     if (!whole) valid.convertTo(vf, CV_32F, 1.0 / 255);
     const TemplateWindows t = whole && whole_windows ? *whole_windows : templateWindows(tpl, vf);
-    const cv::Mat ma = localSum(aligned, vf, win) / t.n;
-    const cv::Mat va = localSum(aligned.mul(aligned), vf, win) / t.n - ma.mul(ma);
-    const cv::Mat cov = localSum(ta, vf, win) / t.n - t.mean.mul(ma);
-    cv::Mat denom;
-    cv::sqrt(cv::max(t.var, 0).mul(cv::max(va, 0)) + 1e-6, denom);
-    const cv::Mat ncc = cov / denom;
+    const cv::Mat sum_a = localSum(aligned, vf, win), sum_aa = localSum(aligned.mul(aligned), vf, win),
+                  sum_ta = localSum(tpl.mul(aligned), vf, win);
+    // The window correlation, pixel by pixel in one pass (an Eigen expression
+    // over the images, all continuous: boxFilter's and TemplateWindows').
+    cv::Mat ncc(tpl.size(), CV_32F);
+    {
+      using Image = Eigen::Map<const Eigen::ArrayXf>;
+      const Eigen::Index n = static_cast<Eigen::Index>(tpl.total());
+      CV_Assert(t.n.isContinuous() && t.mean.isContinuous() && t.var.isContinuous());
+      const Image wn(t.n.ptr<float>(), n), tm(t.mean.ptr<float>(), n), tv(t.var.ptr<float>(), n);
+      const Eigen::ArrayXf ma = Image(sum_a.ptr<float>(), n) / wn;
+      const auto va = Image(sum_aa.ptr<float>(), n) / wn - ma * ma;
+      const auto cov = Image(sum_ta.ptr<float>(), n) / wn - tm * ma;
+      Eigen::Map<Eigen::ArrayXf>(ncc.ptr<float>(), n) = cov / (tv.max(0.0f) * va.max(0.0f) + 1e-6f).sqrt();
+    }
     // (Not from the fit's noise level: with most of the target covered the
     // photometric fit is the occluder's, and its noise level is the texture's.)
     const cv::Mat textured = t.var > kTexturedStd * kTexturedStd;

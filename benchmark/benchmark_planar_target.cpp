@@ -13,14 +13,18 @@
 //   make -C _build benchmarks
 //   taskset -c 0 _build/benchmark/benchmark_planar_target
 //
+// Also: one image-target search of a frame (BM_ImageTargetSearch).
+//
 // OpenCV runs single-threaded here (cv::setNumThreads(1) in main).
 #include "instant_motion_tracking/core/motion/motion_analysis.h"
 #include "instant_motion_tracking/core/motion_cache.h"
+#include "instant_motion_tracking/core/planar/image_target_detector.h"
 #include "instant_motion_tracking/core/planar/planar_target.h"
 #include "instant_motion_tracking/sim/scene.h"
 
 #include <benchmark/benchmark.h>
 #include <opencv2/core/utility.hpp>
+#include <opencv2/imgproc.hpp>
 
 #include <cmath>
 #include <ctime>
@@ -134,6 +138,53 @@ BENCHMARK(BM_PlanarTargetStep)
     ->Args({640, 480, 1})
     ->Args({1280, 720, 1})
     ->Iterations(kPasses * (kFrames - 1))  // every frame after the first, kPasses times
+    ->Unit(benchmark::kMillisecond);
+
+// Searching one frame for an image target (ImageTargetDetector: the frame's
+// keypoints described, matched against the picture's, and when they agree,
+// the picture aligned by ECC): a poster_orbit frame with the picture absent
+// (the cost of every searched frame while a target is missing), or warped
+// into it at about a third of the frame's width (a find).
+void BM_ImageTargetSearch(benchmark::State& state) {
+  const Sequence& s = sequence(static_cast<int>(state.range(0)), static_cast<int>(state.range(1)), false);
+  const imt::MotionCache& cache = *s.cache;
+  const cv::Mat picture = imt::proceduralTexture(1024, 7)(cv::Rect(0, 0, 1024, 768)).clone();
+  const imt::PlanarTargetOptions o;
+  std::string err;
+  const auto detector = imt::ImageTargetDetector::create(picture, o, &err);
+  if (!detector) {
+    state.SkipWithError(err.c_str());
+    return;
+  }
+  cv::Mat frame = cache.image(cache.firstSeq() + 30).clone();
+  const bool present = state.range(2) != 0;
+  if (present) {
+    const float w = frame.cols, h = frame.rows;
+    const std::vector<cv::Point2f> from = {{0, 0}, {1024, 0}, {1024, 768}, {0, 768}};
+    const std::vector<cv::Point2f> to = {
+        {0.35f * w, 0.3f * h}, {0.68f * w, 0.33f * h}, {0.66f * w, 0.72f * h}, {0.33f * w, 0.68f * h}};
+    cv::warpPerspective(picture, frame, cv::getPerspectiveTransform(from, to), frame.size(), cv::INTER_AREA,
+                        cv::BORDER_TRANSPARENT);
+  }
+  double cpu_ms = 0;
+  int64_t found = 0;
+  for (auto _ : state) {
+    const double t0 = threadCpuMs();
+    imt::ImageTargetDetector::Detection d;
+    found += detector->detect(imt::ImageTargetDetector::describeFrame(frame, o), &d);
+    cpu_ms += threadCpuMs() - t0;
+  }
+  const double n = static_cast<double>(std::max<int64_t>(1, state.iterations()));
+  state.counters["cpu_ms"] = cpu_ms / n;
+  state.counters["found"] = static_cast<double>(found) / n;
+}
+BENCHMARK(BM_ImageTargetSearch)
+    ->ArgNames({"w", "h", "present"})
+    ->Args({640, 480, 0})
+    ->Args({640, 480, 1})
+    ->Args({1280, 720, 0})
+    ->Args({1280, 720, 1})
+    ->Iterations(10)
     ->Unit(benchmark::kMillisecond);
 
 }  // namespace

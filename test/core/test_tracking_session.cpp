@@ -10,6 +10,7 @@
 #include "scene_test_util.h"
 
 #include <gtest/gtest.h>
+#include <opencv2/imgcodecs.hpp>
 
 #include <array>
 #include <cmath>
@@ -27,10 +28,14 @@ struct Rendered {
   std::vector<ImuSample> imu;
 };
 
-Rendered render(const std::string& preset, double duration, std::optional<int> seed = std::nullopt) {
+// `target_texture` (a file): the planar target's picture.
+Rendered render(const std::string& preset, double duration, std::optional<int> seed = std::nullopt,
+                const std::string& target_texture = "") {
   SceneOptions o = test::preset(preset);
   o.duration = duration;
   if (seed) o.seed = *seed;
+  for (ScenePlane& p : o.planes)
+    if (p.kind == ScenePlane::Kind::kTarget && !target_texture.empty()) p.texture_file = target_texture;
   Rendered r;
   r.scene = test::make(o);
   if (!r.scene) return r;
@@ -46,6 +51,8 @@ struct Items {
   std::optional<cv::Rect2d> region;
   std::optional<FrameTruth::Target> target;
   std::optional<FrameTruth::Anchor> anchor;
+  cv::Mat picture;  // an image target's
+  double picture_width_m = 0, picture_height_m = 0;
 };
 
 void addItems(TrackingSession& s, const Rendered& r, const Items& items) {
@@ -59,6 +66,9 @@ void addItems(TrackingSession& s, const Rendered& r, const Items& items) {
         << err;
   if (items.anchor)
     ASSERT_TRUE(s.addAnchor(5, stamp, items.anchor->pixel, items.anchor->T_cam_anchor.translation().norm(), &id, &err))
+        << err;
+  if (!items.picture.empty())
+    ASSERT_TRUE(s.addImageTarget(6, stamp, items.picture, items.picture_width_m, items.picture_height_m, &id, &err))
         << err;
 }
 
@@ -194,6 +204,36 @@ double worstDifference(const std::map<int, FrameResult>& a, const std::map<int, 
     if (d > worst) worst = d, *at = i;
   }
   return worst;
+}
+
+// An image target given at the newest frame live (frame 30) and at that
+// frame's stamp offline: searched on threads of their own, answered at
+// fixed frames, so the two agree exactly, not_found before the find
+// included.
+TEST(TrackingSession, LiveAndOfflineAgreeOnImageTargets) {
+  const std::string png = ::testing::TempDir() + "/imt_session_poster.png";
+  const cv::Mat picture = proceduralTexture(1024, 7)(cv::Rect(0, 0, 1024, 768)).clone();
+  ASSERT_TRUE(cv::imwrite(png, picture));
+  const Rendered r = render("poster_orbit", 2.0, std::nullopt, png);
+  ASSERT_TRUE(r.scene);
+  Items items;
+  items.given = items.asked = 30;
+  items.picture = picture;
+  items.picture_width_m = r.scene->frameTruth(0).targets.at(0).width_m;
+  items.picture_height_m = r.scene->frameTruth(0).targets.at(0).height_m;
+  std::map<int, FrameResult> offline;
+  EXPECT_EQ(liveVsOffline("poster_orbit, image target", r, items, PipelineOptions(), &offline), 0.0);
+  int not_found = 0, tracked = 0;
+  for (const auto& [i, fr] : offline) {
+    if (i < items.given) continue;
+    ASSERT_EQ(fr.targets.size(), 1u);
+    not_found += fr.targets[0].status == TargetStatus::kNotFound;
+    tracked += fr.targets[0].status == TargetStatus::kTracked;
+  }
+  // Found by the first search: its answer comes detect_interval frames on.
+  EXPECT_EQ(not_found, PlanarTargetOptions().detect_interval);
+  EXPECT_EQ(tracked + not_found, r.scene->frameCount() - items.given);
+  std::remove(png.c_str());
 }
 
 // poster_orbit: a planar target and a region on the poster, given at frame

@@ -17,9 +17,9 @@
 //   tf2                  <frame_prefix>planar_target_<id>, child of the image frame (~publish_tf)
 // Services:
 //   add_planar_target    AddPlanarTarget: corners TL, TR, BR, BL at a cached stamp (0 = latest) + size
-//   add_image_target     AddImageTarget: a picture (file or sensor_msgs/Image) + size, found from the
-//                        latest frame on (detection every ~planar_tracking/detect_interval frames
-//                        while not tracked, on the frame's own thread)
+//   add_image_target     AddImageTarget: a picture (file or sensor_msgs/Image) + size, searched for
+//                        from the latest frame on while not tracked (on threads of their own,
+//                        answered ~planar_tracking/detect_interval frames later)
 //   remove_planar_target RemoveRegion
 // Parameters (private namespace; config/default.yaml): cache_seconds, default_hfov_deg,
 //   planar_tracking/*, publish_tf, frame_prefix, queue_size, always_subscribe, diagnostic_period.

@@ -158,27 +158,56 @@ bool PlanarTargetManager::addImage(uint32_t id, double stamp, const cv::Mat& pic
 }
 
 PlanarTargetState PlanarTargetManager::findImageTarget(Target& t, uint64_t seq, const PlanarTargetState& s) {
-  if (s.status == TargetStatus::kTracked || seq < t.next_search) return s;
-  const cv::Mat gray = cache_->image(seq);
-  if (gray.empty()) return s;  // a frame without its image: the next one is searched
+  const MotionCache& cache = *cache_;
+  PlanarTargetState out = s;
+  if (t.search.valid() && seq >= t.search_seq + options_.detect_interval) {
+    const std::optional<ImageTargetDetector::Detection> found = t.search.get();
+    const uint64_t from = t.search_seq;
+    std::string why;
+    if (found && s.status != TargetStatus::kTracked && from >= cache.firstSeq()) {
+      auto tracker = PlanarTargetTracker::create(options_, t.not_found.id, found->corners, t.not_found.width_m,
+                                                 t.not_found.height_m, t.camera, cache.at(from), &why,
+                                                 cache.image(from), t.picture->picture());
+      if (tracker) {
+        Eigen::Matrix3d H;
+        for (uint64_t q = from; q < seq; ++q) {
+          const bool valid = cache.cameraMotion(q, q + 1, &H);
+          tracker->step(cache.at(q + 1), H, valid, cache.image(q + 1));
+        }
+        t.forward = std::move(tracker);
+        out = t.forward->state();
+      }
+    }
+    t.next_search = std::max(t.next_search, seq);
+  }
+  if (out.status == TargetStatus::kTracked || t.search.valid() || seq < t.next_search) return out;
+  const cv::Mat gray = cache.image(seq);
+  if (gray.empty()) return out;  // a frame without its image: the next one is searched
+  t.search_seq = seq;
   t.next_search = seq + options_.detect_interval;
-  ImageTargetDetector::Detection found;
-  if (!t.picture->detect(describedFrame(seq), &found)) return s;
-  std::string why;
-  auto tracker = PlanarTargetTracker::create(options_, t.not_found.id, found.corners, t.not_found.width_m,
-                                             t.not_found.height_m, t.camera, cache_->at(seq), &why, gray,
-                                             t.picture->picture());
-  if (!tracker) return s;
-  t.forward = std::move(tracker);
-  return t.forward->state();
+  std::shared_future<ImageTargetDetector::Frame> frame = describedFrame(seq, gray);
+  std::shared_ptr<const ImageTargetDetector> picture = t.picture;
+  t.search = std::async(std::launch::async, [frame, picture]() -> std::optional<ImageTargetDetector::Detection> {
+    ImageTargetDetector::Detection d;
+    if (!picture->detect(frame.get(), &d)) return std::nullopt;
+    return d;
+  });
+  return out;
 }
 
-const ImageTargetDetector::Frame& PlanarTargetManager::describedFrame(uint64_t seq) {
-  if (described_seq_ != seq || described_.size.area() == 0) {
-    described_ = ImageTargetDetector::describeFrame(cache_->image(seq), options_);
-    described_seq_ = seq;
-  }
-  return described_;
+std::shared_future<ImageTargetDetector::Frame> PlanarTargetManager::describedFrame(uint64_t seq,
+                                                                                     const cv::Mat& gray) {
+  // Frames of searches long answered are forgotten.
+  while (!described_.empty() && described_.begin()->first + 2 * options_.detect_interval < seq)
+    described_.erase(described_.begin());
+  auto it = described_.find(seq);
+  if (it != described_.end()) return it->second;
+  const PlanarTargetOptions options = options_;
+  std::shared_future<ImageTargetDetector::Frame> f =
+      std::async(std::launch::async, [gray, options] { return ImageTargetDetector::describeFrame(gray, options); })
+          .share();
+  described_.emplace(seq, f);
+  return f;
 }
 
 std::vector<uint32_t> PlanarTargetManager::ids() const {

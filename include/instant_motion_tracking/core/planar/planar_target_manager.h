@@ -18,8 +18,10 @@
 #include "instant_motion_tracking/core/planar/image_target_detector.h"
 #include "instant_motion_tracking/core/planar/planar_target.h"
 
+#include <future>
 #include <map>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -39,10 +41,17 @@ class PlanarTargetManager {
            double height_m, const CameraModel& k, uint32_t* assigned_id, std::string* error);
   // An image target: known by its picture (CV_8UC1 or BGR; its corners are
   // the target's TL, TR, BR, BL), searched for from the cached frame nearest
-  // `stamp` (0 = the latest) on, every detect_interval frames while it is
-  // not tracked (status not_found until found; lost or out of view: found
-  // again), and tracked like any target once found. Frames before that one
-  // are not_found. Needs the frames' images (PlanarTargetOptions::usesImages()).
+  // `stamp` (0 = the latest) on while it is not tracked (status not_found
+  // until found; lost or out of view: found again), and tracked like any
+  // target once found. Frames before that one are not_found. Needs the
+  // frames' images (PlanarTargetOptions::usesImages()).
+  //
+  // A search runs on a thread of its own, so frames are not held up by it:
+  // started at frame k, its answer is taken at frame k + detect_interval
+  // (waiting for it there if it is not done), and a find starts the tracker
+  // at frame k and steps it through the cached frames since. The next search
+  // starts at that frame. Live and offline give the same states: what a
+  // frame shows depends on the frame count, never on how fast a search ran.
   bool addImage(uint32_t id, double stamp, const cv::Mat& picture, double width_m, double height_m,
                 const CameraModel& k, uint32_t* assigned_id, std::string* error);
   bool remove(uint32_t id, std::string* error);
@@ -52,7 +61,7 @@ class PlanarTargetManager {
                 std::string* error);
   void clear() {
     targets_.clear();
-    described_ = ImageTargetDetector::Frame();
+    described_.clear();
   }
   size_t size() const { return targets_.size(); }
   std::vector<uint32_t> ids() const;  // in id order
@@ -66,21 +75,25 @@ class PlanarTargetManager {
     std::shared_ptr<const ImageTargetDetector> picture;
     PlanarTargetState not_found;  // the state while no tracker follows it
     CameraModel camera;
-    uint64_t next_search = 0;  // the next frame searched
+    uint64_t next_search = 0;  // the next frame a search starts at
+    uint64_t search_seq = 0;   // the frame the running search looks at
+    std::future<std::optional<ImageTargetDetector::Detection>> search;  // valid while one runs
   };
   const PlanarTargetState& advance(Target& t, uint64_t seq);
-  // An image target at frame `seq` whose tracker (if any) gave `s`: searched
-  // for when it is due and not tracked; found, a new tracker starts there.
+  // An image target at frame `seq` whose tracker (if any) gave `s`: the
+  // answer of its search taken when due (found: a new tracker from the
+  // searched frame, stepped to `seq`), and a new search started when it is
+  // not tracked.
   PlanarTargetState findImageTarget(Target& t, uint64_t seq, const PlanarTargetState& s);
-  // The frame's keypoints, described once for every image target.
-  const ImageTargetDetector::Frame& describedFrame(uint64_t seq);
+  // The frame's keypoints, described once (on a search's thread) for every
+  // image target searching it.
+  std::shared_future<ImageTargetDetector::Frame> describedFrame(uint64_t seq, const cv::Mat& gray);
   bool checkNewTarget(uint32_t* id, std::string* error) const;
 
   PlanarTargetOptions options_;
   const MotionCache* cache_;
   std::map<uint32_t, Target> targets_;
-  uint64_t described_seq_ = 0;
-  ImageTargetDetector::Frame described_;
+  std::map<uint64_t, std::shared_future<ImageTargetDetector::Frame>> described_;
 };
 
 }  // namespace imt

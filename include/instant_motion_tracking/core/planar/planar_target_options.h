@@ -100,8 +100,9 @@ struct PlanarTargetOptions {
       "planar targets tracked at most (each costs milliseconds per frame); add_planar_target and INIT.yaml "
       "are refused beyond");
     v("detect_interval", detect_interval,
-      "frames between two attempts to find an image target not tracked (not found yet, lost or out of view); "
-      "one attempt describes the frame once for every such target");
+      "frames after which a search for an image target not tracked (not found yet, lost or out of view), run "
+      "on a thread of its own, is answered (a find starts the tracker at the searched frame); the next search "
+      "starts then");
     v("detect_features", detect_features, "ORB keypoints described in a frame for finding image targets");
     v("detect_picture_size", detect_picture_size,
       "px; an image target's picture is described at this long side (scaled down or up to it)");

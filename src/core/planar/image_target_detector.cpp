@@ -66,10 +66,32 @@ std::unique_ptr<ImageTargetDetector> ImageTargetDetector::create(const cv::Mat& 
   // small picture.
   d->scale_ = double(std::max(gray.cols, gray.rows)) / options.detect_picture_size;
   cv::resize(gray, gray, cv::Size(), 1 / d->scale_, 1 / d->scale_, d->scale_ > 1 ? cv::INTER_AREA : cv::INTER_LINEAR);
-  // The picture is its own whole target: its keypoints may lie anywhere in it.
-  // Its strongest keypoints only: matching costs keypoints x the frame's.
-  orb(options.detect_picture_features)->detectAndCompute(gray, cv::noArray(), d->keypoints_, d->descriptors_);
-  for (cv::KeyPoint& k : d->keypoints_) k.pt *= d->scale_;
+  // The picture is its own whole target: its keypoints may lie anywhere in
+  // it. Its strongest keypoints only: matching costs keypoints x the frame's.
+  // Eight scales 1.2 apart, each with an equal share of the keypoints (ORB's
+  // own pyramid gives the small scales few: a target 140 px wide on screen
+  // was found on one search in three), each scale padded by reflection so
+  // that keypoints near the picture's border are described too.
+  constexpr int kLevels = 8, kPad = 32;
+  const int per_level = std::max(20, options.detect_picture_features / kLevels);
+  std::vector<cv::Mat> parts;
+  for (int l = 0; l < kLevels; ++l) {
+    const double f = std::pow(1.2, -l);
+    cv::Mat level, padded;
+    cv::resize(gray, level, cv::Size(), f, f, l ? cv::INTER_AREA : cv::INTER_LINEAR);
+    cv::copyMakeBorder(level, padded, kPad, kPad, kPad, kPad, cv::BORDER_REFLECT_101);
+    std::vector<cv::KeyPoint> kps;
+    cv::Mat desc;
+    cv::ORB::create(per_level, 1.2f, 1)->detectAndCompute(padded, cv::noArray(), kps, desc);
+    for (int i = 0; i < static_cast<int>(kps.size()); ++i) {
+      const cv::Point2f p = kps[i].pt - cv::Point2f(kPad, kPad);
+      if (p.x < 0 || p.y < 0 || p.x >= level.cols || p.y >= level.rows) continue;
+      kps[i].pt = p * static_cast<float>(d->scale_ / f);  // in picture px
+      d->keypoints_.push_back(kps[i]);
+      parts.push_back(desc.row(i));
+    }
+  }
+  if (!parts.empty()) cv::vconcat(parts, d->descriptors_);
   if (static_cast<int>(d->keypoints_.size()) < options.detect_min_inliers) {
     *error = "the picture has " + std::to_string(d->keypoints_.size()) +
              " keypoints, fewer than planar_tracking.detect_min_inliers (" +

@@ -107,8 +107,8 @@ struct PlanarTargetOptions {
     v("detect_picture_size", detect_picture_size,
       "px; an image target's picture is described at this long side (scaled down or up to it)");
     v("detect_picture_features", detect_picture_features,
-      "ORB keypoints of an image target's picture (its strongest): a search costs these times detect_features "
-      "matches");
+      "ORB keypoints of an image target's picture (its strongest, shared equally by 8 scales 1.2 apart): a "
+      "search costs these times detect_features matches");
     v("detect_ratio", detect_ratio,
       "a picture keypoint matches a frame's when its best match is closer than this fraction of the second "
       "best (Lowe's ratio test)");

@@ -4,6 +4,7 @@
 #include "planar_appearance.h"
 
 #include <Eigen/Core>
+#include <opencv2/core/eigen.hpp>
 #include <opencv2/imgproc.hpp>
 
 #include <algorithm>
@@ -19,8 +20,7 @@ namespace planar_detail {
 
 cv::Matx33d toMatx(const Eigen::Matrix3d& M) {
   cv::Matx33d m;
-  for (int r = 0; r < 3; ++r)
-    for (int c = 0; c < 3; ++c) m(r, c) = M(r, c);
+  cv::eigen2cv(M, m);
   return m;
 }
 

@@ -1,9 +1,9 @@
 #include "instant_motion_tracking/io/init_spec.h"
 
 #include "instant_motion_tracking/core/item_requests.h"
+#include "instant_motion_tracking/core/planar/image_target_detector.h"
 #include "instant_motion_tracking/core/planar/planar_target.h"
 
-#include <opencv2/imgcodecs.hpp>
 #include <yaml-cpp/yaml.h>
 
 #include <algorithm>
@@ -218,13 +218,12 @@ InitSpec parseRoot(const YAML::Node& root, const std::string& source) {
           r.fail("image must be a file path, got " + describe(image));
         e->image = image.Scalar();
         e->size = r.numbers<2>(r.field("size"), "size");
-        if (!(e->size[0] > 0) || !(e->size[1] > 0) || !std::isfinite(e->size[0]) || !std::isfinite(e->size[1]))
-          r.fail("target size must be positive (got " + std::to_string(e->size[0]) + " x " +
-                 std::to_string(e->size[1]) + " m)");
+        if (const std::string why = validateTargetSize(e->size[0], e->size[1]); !why.empty()) r.fail(why);
         const fs::path p(e->image);
         e->path = p.is_absolute() || dir.empty() ? p.string() : (fs::path(dir) / p).string();
-        e->picture = cv::imread(e->path, cv::IMREAD_GRAYSCALE);
-        if (e->picture.empty()) r.fail("cannot read image '" + e->path + "'");
+        std::string why;
+        e->picture = ImageTargetDetector::readPicture(e->path, &why);
+        if (e->picture.empty()) r.fail(why);
       },
       &target_ids);
   spec.anchors = readList<AnchorInit>(

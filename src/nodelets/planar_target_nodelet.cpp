@@ -1,10 +1,11 @@
 #include "instant_motion_tracking/ros/planar_target_nodelet.h"
 
+#include "instant_motion_tracking/core/planar/image_target_detector.h"
+
 #include "instant_motion_tracking/ros/conversions.h"
 #include "instant_motion_tracking/ros/image_conversion.h"
 #include "instant_motion_tracking/ros/markers.h"
 
-#include <opencv2/imgcodecs.hpp>
 #include <pluginlib/class_list_macros.hpp>
 
 namespace imt {
@@ -69,8 +70,7 @@ bool PlanarTargetNodelet::addImageCb(instant_motion_tracking::AddImageTarget::Re
   cv::Mat picture;
   std::string error;
   if (!req.image_path.empty()) {
-    picture = cv::imread(req.image_path, cv::IMREAD_GRAYSCALE);
-    if (picture.empty()) error = "cannot read image '" + req.image_path + "'";
+    picture = ImageTargetDetector::readPicture(req.image_path, &error);
   } else if (req.image.data.empty()) {
     error = "no picture: give image_path or image";
   } else if (!imageToGray(req.image, &picture, &error)) {

@@ -2,8 +2,11 @@
 
 #include "instant_motion_tracking/core/planar/planar_target.h"
 
+#include "planar_internal.h"
+
 #include <opencv2/calib3d.hpp>
 #include <opencv2/features2d.hpp>
+#include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <opencv2/video/tracking.hpp>
 
@@ -13,26 +16,17 @@
 namespace imt {
 namespace {
 
-cv::Ptr<cv::ORB> orb(int features) {
-  // Eight levels 1.2 apart: a picture described at 480 px is matched from
-  // about 130 px to 480 px on screen, and the frame's own pyramid reaches the
-  // same span upwards.
-  return cv::ORB::create(features, 1.2f, 8);
-}
+// A frame's keypoints: eight levels 1.2 apart, so a target larger on screen
+// than the picture's largest scale is matched too.
+cv::Ptr<cv::ORB> orb(int features) { return cv::ORB::create(features, 1.2f, 8); }
 
 // A quad a tracker can start from (any physical size: only its shape is
 // checked), partly in view, neither tiny nor many frames wide (a degenerate fit).
 bool usableQuad(const std::array<cv::Point2d, 4>& c, const cv::Size& frame) {
   if (!validateTargetRequest(c, 1, 1).empty()) return false;
-  double x0 = c[0].x, x1 = x0, y0 = c[0].y, y1 = y0;
-  for (const cv::Point2d& p : c) {
-    x0 = std::min(x0, p.x);
-    x1 = std::max(x1, p.x);
-    y0 = std::min(y0, p.y);
-    y1 = std::max(y1, p.y);
-  }
-  if (!(x1 > 0 && y1 > 0 && x0 < frame.width && y0 < frame.height)) return false;
-  const double extent = std::max(x1 - x0, y1 - y0);
+  const cv::Rect2d b = planar_detail::quadBounds(c);
+  if (!(b.br().x > 0 && b.br().y > 0 && b.x < frame.width && b.y < frame.height)) return false;
+  const double extent = std::max(b.width, b.height);
   return extent >= 16 && extent <= 4.0 * std::max(frame.width, frame.height);
 }
 
@@ -59,13 +53,12 @@ std::unique_ptr<ImageTargetDetector> ImageTargetDetector::create(const cv::Mat& 
   else gray = picture;
   std::unique_ptr<ImageTargetDetector> d(new ImageTargetDetector);
   d->options_ = options;
-  d->picture_size_ = gray.size();
   d->picture_ = gray.clone();
   // Described at one size whatever its resolution: ORB keeps no keypoint
   // within its patch radius of the border, which would leave little of a
-  // small picture.
-  d->scale_ = double(std::max(gray.cols, gray.rows)) / options.detect_picture_size;
-  cv::resize(gray, gray, cv::Size(), 1 / d->scale_, 1 / d->scale_, d->scale_ > 1 ? cv::INTER_AREA : cv::INTER_LINEAR);
+  // small picture. `scale`: picture px per described px.
+  const double scale = double(std::max(gray.cols, gray.rows)) / options.detect_picture_size;
+  cv::resize(gray, gray, cv::Size(), 1 / scale, 1 / scale, scale > 1 ? cv::INTER_AREA : cv::INTER_LINEAR);
   // The picture is its own whole target: its keypoints may lie anywhere in
   // it. Its strongest keypoints only: matching costs keypoints x the frame's.
   // Eight scales 1.2 apart, each with an equal share of the keypoints (ORB's
@@ -86,7 +79,7 @@ std::unique_ptr<ImageTargetDetector> ImageTargetDetector::create(const cv::Mat& 
     for (int i = 0; i < static_cast<int>(kps.size()); ++i) {
       const cv::Point2f p = kps[i].pt - cv::Point2f(kPad, kPad);
       if (p.x < 0 || p.y < 0 || p.x >= level.cols || p.y >= level.rows) continue;
-      kps[i].pt = p * static_cast<float>(d->scale_ / f);  // in picture px
+      kps[i].pt = p * static_cast<float>(scale / f);  // in picture px
       d->keypoints_.push_back(kps[i]);
       parts.push_back(desc.row(i));
     }
@@ -104,7 +97,6 @@ std::unique_ptr<ImageTargetDetector> ImageTargetDetector::create(const cv::Mat& 
 ImageTargetDetector::Frame ImageTargetDetector::describeFrame(const cv::Mat& gray,
                                                               const PlanarTargetOptions& options) {
   Frame f;
-  f.size = gray.size();
   f.gray = gray;
   if (gray.empty()) return f;
   // Tiles, each with its share of the keypoints: a small target among
@@ -138,9 +130,7 @@ ImageTargetDetector::Frame ImageTargetDetector::describeFrame(const cv::Mat& gra
 bool ImageTargetDetector::align(const cv::Mat& gray, const cv::Mat& H, Detection* d) const {
   // The picture at about its size on screen (no finer: ECC would chase
   // detail the frame does not have), mapped by H scaled to it.
-  const double on_screen = std::sqrt(std::abs(cv::contourArea(std::vector<cv::Point2f>(
-                                         {cv::Point2f(d->corners[0]), cv::Point2f(d->corners[1]),
-                                          cv::Point2f(d->corners[2]), cv::Point2f(d->corners[3])}))));
+  const double on_screen = std::sqrt(std::abs(planar_detail::quadArea(d->corners)));
   const double s = std::min(1.0, on_screen / std::sqrt(double(picture_.cols) * picture_.rows));
   if (!(s > 0)) return false;
   cv::Mat templ;
@@ -160,13 +150,21 @@ bool ImageTargetDetector::align(const cv::Mat& gray, const cv::Mat& H, Detection
   if (!(cc >= options_.detect_min_correlation)) return false;
   cv::Mat Hd;
   cv::Mat(warp * cv::Mat(cv::Matx33f(float(s), 0, 0, 0, float(s), 0, 0, 0, 1))).convertTo(Hd, CV_64F);
-  std::vector<cv::Point2d> from = {{0, 0}, {double(picture_size_.width), 0},
-                                   {double(picture_size_.width), double(picture_size_.height)},
-                                   {0, double(picture_size_.height)}},
-                           to;
-  cv::perspectiveTransform(from, to, Hd);
-  std::copy(to.begin(), to.end(), d->corners.begin());
+  d->corners = cornersBy(Hd);
   return true;
+}
+
+std::array<cv::Point2d, 4> ImageTargetDetector::cornersBy(const cv::Mat& H) const {
+  const double w = picture_.cols, h = picture_.rows;
+  std::vector<cv::Point2d> to;
+  cv::perspectiveTransform(std::vector<cv::Point2d>{{0, 0}, {w, 0}, {w, h}, {0, h}}, to, H);
+  return {to[0], to[1], to[2], to[3]};
+}
+
+cv::Mat ImageTargetDetector::readPicture(const std::string& path, std::string* error) {
+  cv::Mat picture = cv::imread(path, cv::IMREAD_GRAYSCALE);
+  if (picture.empty()) *error = "cannot read image '" + path + "'";
+  return picture;
 }
 
 bool ImageTargetDetector::detect(const Frame& frame, Detection* found) const {
@@ -189,21 +187,14 @@ bool ImageTargetDetector::detect(const Frame& frame, Detection* found) const {
       cv::findHomography(from, to, cv::RANSAC, options_.detect_ransac_error, inlier, 2000, 0.995);
   if (H.empty()) return false;
   d.inliers = static_cast<int>(std::count(inlier.begin(), inlier.end(), 1));
-
   if (d.inliers < options_.detect_min_inliers) return false;
-  const std::vector<cv::Point2d> picture_corners = {{0, 0},
-                                                    {double(picture_size_.width), 0},
-                                                    {double(picture_size_.width), double(picture_size_.height)},
-                                                    {0, double(picture_size_.height)}};
-  std::vector<cv::Point2d> corners;
-  cv::perspectiveTransform(picture_corners, corners, H);
-  std::copy(corners.begin(), corners.end(), d.corners.begin());
-  if (!usableQuad(d.corners, frame.size)) return false;
+  d.corners = cornersBy(H);
+  if (!usableQuad(d.corners, frame.gray.size())) return false;
   // The keypoints propose, the picture's look decides: the homography is
   // aligned with the frame (ECC), which also takes the corners from the
   // keypoints' pixel or so to a fraction of one.
   const bool aligned = align(frame.gray, H, &d);
-  if (!aligned || !usableQuad(d.corners, frame.size)) return false;
+  if (!aligned || !usableQuad(d.corners, frame.gray.size())) return false;
   *found = d;
   return true;
 }

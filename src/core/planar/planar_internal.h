@@ -32,6 +32,7 @@ bool fitPose(const std::vector<PlaneObservation>& obs, const CameraModel& k, dou
 // The target's corners TL, TR, BR, BL in its own frame (m; origin at the centre).
 std::array<Eigen::Vector3d, 4> targetCorners(double w, double h);
 double longestEdge(const std::array<cv::Point2d, 4>& c);  // px
+cv::Rect2d quadBounds(const std::array<cv::Point2d, 4>& c);  // px; the axis-aligned box around the corners
 double quadArea(const std::array<cv::Point2d, 4>& c);     // px^2, signed (positive clockwise on screen)
 // Fraction of the quad's area inside a w x h image.
 double fractionInside(const std::array<cv::Point2d, 4>& c, int w, int h);

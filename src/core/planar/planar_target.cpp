@@ -89,6 +89,17 @@ double longestEdge(const std::array<cv::Point2d, 4>& c) {
   return e;
 }
 
+cv::Rect2d quadBounds(const std::array<cv::Point2d, 4>& c) {
+  double x0 = c[0].x, x1 = x0, y0 = c[0].y, y1 = y0;
+  for (const cv::Point2d& p : c) {
+    x0 = std::min(x0, p.x);
+    x1 = std::max(x1, p.x);
+    y0 = std::min(y0, p.y);
+    y1 = std::max(y1, p.y);
+  }
+  return cv::Rect2d(x0, y0, x1 - x0, y1 - y0);
+}
+
 double quadArea(const std::array<cv::Point2d, 4>& c) {
   double a = 0;
   for (int i = 0; i < 4; ++i) a += c[i].x * c[(i + 1) % 4].y - c[(i + 1) % 4].x * c[i].y;
@@ -195,6 +206,10 @@ std::string validateTargetRequest(const std::array<cv::Point2d, 4>& corners, dou
   if (a.x * b.y - a.y * b.x < 0)
     return "corners are counter-clockwise in the image (a mirrored quad): they must be TL, TR, BR, BL, "
            "clockwise in the image";
+  return validateTargetSize(width_m, height_m);
+}
+
+std::string validateTargetSize(double width_m, double height_m) {
   if (!(width_m > 0) || !(height_m > 0) || !std::isfinite(width_m) || !std::isfinite(height_m))
     return "target size must be positive (got " + std::to_string(width_m) + " x " +
            std::to_string(height_m) + " m)";

@@ -6,6 +6,7 @@
 #include <cmath>
 
 #include "option_checker.h"
+#include "planar_internal.h"
 
 namespace imt {
 
@@ -76,14 +77,8 @@ bool PlanarTargetManager::add(uint32_t id, double stamp, const std::array<cv::Po
   if (!cache.find(stamp, &seq, error)) return false;
   // Given where it is seen: at least partly inside the image.
   const cv::Size size = cache.imageSize();
-  double x0 = corners[0].x, x1 = x0, y0 = corners[0].y, y1 = y0;
-  for (const cv::Point2d& c : corners) {
-    x0 = std::min(x0, c.x);
-    x1 = std::max(x1, c.x);
-    y0 = std::min(y0, c.y);
-    y1 = std::max(y1, c.y);
-  }
-  if (!(x1 > 0 && y1 > 0 && x0 < size.width && y0 < size.height)) {
+  const cv::Rect2d b = planar_detail::quadBounds(corners);
+  if (!(b.br().x > 0 && b.br().y > 0 && b.x < size.width && b.y < size.height)) {
     *error = "corners lie entirely outside the " + std::to_string(size.width) + "x" + std::to_string(size.height) +
              " image";
     return false;
@@ -123,9 +118,8 @@ bool PlanarTargetManager::addImage(uint32_t id, double stamp, const cv::Mat& pic
     *error = alreadyTrackedError("planar target", id);
     return false;
   }
-  if (!(width_m > 0) || !(height_m > 0) || !std::isfinite(width_m) || !std::isfinite(height_m)) {
-    *error = "target size must be positive (got " + std::to_string(width_m) + " x " + std::to_string(height_m) +
-             " m)";
+  if (std::string e = validateTargetSize(width_m, height_m); !e.empty()) {
+    *error = e;
     return false;
   }
   if (!options_.usesImages()) {

@@ -35,7 +35,6 @@ class ImageTargetDetector {
   // A frame (CV_8UC1), its keypoints and their ORB descriptors.
   struct Frame {
     cv::Mat gray;
-    cv::Size size;
     std::vector<cv::KeyPoint> keypoints;
     cv::Mat descriptors;
   };
@@ -52,22 +51,23 @@ class ImageTargetDetector {
   static std::unique_ptr<ImageTargetDetector> create(const cv::Mat& picture, const PlanarTargetOptions& options,
                                                      std::string* error);
   static Frame describeFrame(const cv::Mat& gray, const PlanarTargetOptions& options);
+  // A picture file, gray; empty and *error ("cannot read image '<path>'")
+  // when it cannot be read as an image.
+  static cv::Mat readPicture(const std::string& path, std::string* error);
 
   // True with the picture's corners in the frame when it is found there.
   bool detect(const Frame& frame, Detection* found) const;
-  cv::Size pictureSize() const { return picture_size_; }
   const cv::Mat& picture() const { return picture_; }  // CV_8UC1
-  size_t keypoints() const { return keypoints_.size(); }
 
  private:
   ImageTargetDetector() = default;
   // Aligns the picture mapped by H (picture px -> frame px) with the frame;
   // true with d->corners from the aligned map when it correlates well.
   bool align(const cv::Mat& gray, const cv::Mat& H, Detection* d) const;
+  // The picture's corners mapped by H (picture px -> frame px).
+  std::array<cv::Point2d, 4> cornersBy(const cv::Mat& H) const;
   PlanarTargetOptions options_;
-  cv::Size picture_size_;                 // as given
   cv::Mat picture_;                       // gray, as given
-  double scale_ = 1;                      // picture px per described px
   std::vector<cv::KeyPoint> keypoints_;   // in picture px
   cv::Mat descriptors_;
 };

@@ -73,6 +73,8 @@ std::string validateQuad(const std::array<cv::Point2d, 4>& corners);
 // request is usable, else why not.
 std::string validateTargetRequest(const std::array<cv::Point2d, 4>& corners, double width_m,
                                   double height_m);
+// The physical size alone (positive, finite): empty when usable, else why not.
+std::string validateTargetSize(double width_m, double height_m);
 
 class PlanarTargetTracker {
  public:

@@ -10,10 +10,10 @@
 #include "instant_motion_tracking/core/planar/planar_target_manager.h"
 
 #include "../pot210.h"
+#include "planar_real.h"
 #include "shared_data.h"
 
 #include <gtest/gtest.h>
-#include <opencv2/calib3d.hpp>
 
 #include <chrono>
 #include <cstdio>
@@ -23,26 +23,9 @@
 namespace imt {
 namespace {
 
-
 // Assumed horizontal field of view of the phone videos (POT gives no
 // intrinsics).
 constexpr double kFieldOfViewDeg = 60.0;
-
-// The target's height / width, from its frame-1 quad seen through the assumed
-// intrinsics (0 when the quad does not rectify): the homography H from the
-// unit square to the quad is K [w r1, h r2, t] up to scale, so the column
-// norms of K^-1 H give the aspect ratio. The user gives the physical size;
-// POT does not, and this is what it implies under the assumed K.
-double rectifiedAspect(const std::array<cv::Point2d, 4>& c, const CameraModel& k) {
-  const std::vector<cv::Point2d> square = {{0, 0}, {1, 0}, {1, 1}, {0, 1}};
-  const cv::Mat H = cv::findHomography(square, std::vector<cv::Point2d>(c.begin(), c.end()));
-  if (H.empty()) return 0;
-  const cv::Matx33d K(k.fx, 0, k.cx, 0, k.fy, k.cy, 0, 0, 1);
-  const cv::Matx33d M = K.inv() * cv::Matx33d(H);
-  const double w = std::hypot(std::hypot(M(0, 0), M(1, 0)), M(2, 0));
-  const double h = std::hypot(std::hypot(M(0, 1), M(1, 1)), M(2, 1));
-  return w > 0 ? h / w : 0;
-}
 
 struct PotResult {
   double precision = 0;
@@ -82,9 +65,8 @@ PotResult runPot(const std::string& seq, int frames, const std::string& model) {
     const std::clock_t cpu1 = std::clock();
     std::vector<PlanarTargetState> states;
     if (f == 1) {
-      const CameraModel k =
-          CameraModel::fromFieldOfView(gray.cols, gray.rows, kFieldOfViewDeg);
-      const double aspect = rectifiedAspect(c0, k);
+      const CameraModel k = CameraModel::fromFieldOfView(gray.cols, gray.rows, kFieldOfViewDeg);
+      const double aspect = test::rectifiedAspect(c0, k);
       EXPECT_GT(aspect, 0);
       EXPECT_TRUE(targets.add(0, 0, c0, 1.0, aspect, k, &id, &err)) << err;
     } else {

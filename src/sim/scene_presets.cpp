@@ -142,6 +142,30 @@ Eigen::Isometry3d trajectoryPose(const std::string& name, double a, double t) {
                                   wave(1.5 * kDeg * a, 3.1, 0.2, t)),
         p);
   }
+  if (name == "handheld") {
+    // A phone held 0.43..0.67 m from the point (0, 2.5, 0) of the wall,
+    // swaying around it (azimuth +-25, elevation +-12, roll +-10 deg), with
+    // the hand's tremor on top, in the camera's own frame: +-1.5 deg of yaw,
+    // +-1.2 of pitch and +-0.6 of roll at 2.2-5.3 Hz, and +-3 mm.
+    const Eigen::Vector3d c(0, kWallDistance, 0);
+    const double az = wave(25 * kDeg * a, 9, 0, t);
+    const double el = wave(12 * kDeg * a, 7, 0.7, t);
+    const double r = 0.55 + 0.12 * a * std::cos(2 * M_PI * t / 7);
+    const Eigen::Vector3d dir(std::sin(az) * std::cos(el), -std::cos(az) * std::cos(el),
+                              std::sin(el));
+    const Eigen::Vector3d q =
+        c + Eigen::Vector3d(wave(0.03 * a, 5, 0, t), 0, wave(0.02 * a, 6, 1.0, t));
+    const Eigen::Vector3d p = c + r * dir;
+    const Eigen::Matrix3d R = lookRotation(q - p, Eigen::Vector3d::UnitZ()) *
+                              yawPitchRoll(0, 0, wave(10 * kDeg * a, 8, 0.4, t));
+    const Eigen::Matrix3d tremor =
+        yawPitchRoll(wave(1.0 * kDeg * a, 0.27, 0, t) + wave(0.5 * kDeg * a, 0.19, 1.3, t),
+                     wave(0.8 * kDeg * a, 0.37, 0.5, t) + wave(0.4 * kDeg * a, 0.23, 2.1, t),
+                     wave(0.6 * kDeg * a, 0.45, 1.0, t));
+    const Eigen::Vector3d jitter(wave(0.003 * a, 0.33, 0, t), wave(0.003 * a, 0.29, 0.8, t),
+                                 wave(0.002 * a, 0.41, 1.7, t));
+    return pose(R, p) * pose(tremor, jitter);
+  }
   // "still" (and anything unknown: validate() rejects unknown names).
   return pose(wallView(), Eigen::Vector3d::Zero());
 }
@@ -289,6 +313,18 @@ bool presetLayout(const std::string& name, SceneOptions* o) {
     wall(14.0, 9.0);
     ScenePlane* poster = onWall(ScenePlane::Kind::kTarget, 1, 0, 0, 0.6, 0.45, 0.001);
     poster->texture_size = 1024;
+  } else if (name == "poster_handheld") {
+    wall(14.0, 9.0);
+    // An A4 page (landscape) on the wall, and a textured card 0.2 m in front
+    // of it sweeping across it and back (from the left, +-0.25 m, 6 s).
+    ScenePlane* page = onWall(ScenePlane::Kind::kTarget, 1, 0, 0, 0.297, 0.21, 0.001);
+    page->texture_size = 1024;
+    ScenePlane* card = onWall(ScenePlane::Kind::kCard, 2, 0, 0.02, 0.12, 0.16, 0.2);
+    card->texture_seed = 77;
+    card->motion = "slide";
+    card->motion_amplitude = 0.25;
+    card->motion_period = 6.0;
+    card->motion_phase = -M_PI / 2;
   } else if (name == "floor_walk") {
     // 12 m across, 20 m along the walk (10 m behind the start: pixels above
     // the horizon would meet it behind the camera if they were not masked).
@@ -320,8 +356,9 @@ bool presetLayout(const std::string& name, SceneOptions* o) {
 }  // namespace scene_detail
 
 std::vector<std::string> SceneOptions::presetNames() {
-  std::vector<std::string> names = {"wall_pan", "cards",  "poster_orbit", "floor_walk",
-                                    "planar",   "rotate", "still",        "featureless_wall"};
+  std::vector<std::string> names = {"wall_pan",        "cards",      "poster_orbit",
+                                    "poster_handheld", "floor_walk", "planar",
+                                    "rotate",          "still",      "featureless_wall"};
   for (const char* region_class : {"region_small", "region_follow", "region_static_covered",
                                    "region_midstart", "region_hidden"})
     names.push_back(region_class);
@@ -329,7 +366,7 @@ std::vector<std::string> SceneOptions::presetNames() {
 }
 
 std::vector<std::string> SceneOptions::trajectoryNames() {
-  return {"pan", "zoom", "planar", "rotate", "still", "orbit", "walk", "dolly"};
+  return {"pan", "zoom", "planar", "rotate", "still", "orbit", "walk", "dolly", "handheld"};
 }
 
 std::optional<SceneOptions> SceneOptions::fromPreset(const std::string& name) {
@@ -349,6 +386,12 @@ std::optional<SceneOptions> SceneOptions::fromPreset(const std::string& name) {
   } else if (name == "cards") {
     o.trajectory = "pan";
     o.trajectory_amplitude = 0.6;
+  } else if (name == "poster_handheld") {
+    // Motion blur of a 1/60 s exposure.
+    o.trajectory = "handheld";
+    o.duration = 10.0;
+    o.exposure = 0.5 / o.fps;
+    o.blur_samples = 5;
   } else if (name == "poster_orbit") {
     o.trajectory = "orbit";
     o.duration = 20.0;

@@ -11,6 +11,7 @@
 #include "scene_test_util.h"
 
 #include <gtest/gtest.h>
+#include <opencv2/imgcodecs.hpp>
 
 #include <algorithm>
 #include <array>
@@ -24,13 +25,14 @@ namespace {
 using test::cornerRms;
 using test::percentile;
 
-
 // Renders `scene` frame by frame through the motion analysis into a cache
 // (frames kept for the appearance alignment), gives its target at frame
 // `add_frame` (the generator's corners and size), and calls
 // visit(frame, truth target, state, corner RMS error) for every later frame.
+// jpeg_quality > 0: every frame goes through JPEG at that quality first, as
+// from a phone's or a webcam's compressed stream.
 template <class Visit>
-void trackRendered(const SceneGenerator& scene, int add_frame, Visit visit) {
+void trackRendered(const SceneGenerator& scene, int add_frame, Visit visit, int jpeg_quality = 0) {
   MotionAnalyzer analyzer{MotionAnalysisOptions()};
   MotionCache cache(0.0);
   cache.setImageBudget(size_t(1) << 30);
@@ -39,14 +41,22 @@ void trackRendered(const SceneGenerator& scene, int add_frame, Visit visit) {
   std::string err;
   for (int i = 0; i < scene.frameCount(); ++i) {
     std::string reset;
-    const cv::Mat frame = scene.renderFrame(i);
+    cv::Mat frame = scene.renderFrame(i);
+    if (jpeg_quality > 0) {
+      std::vector<uchar> jpeg;
+      cv::imencode(".jpg", frame, jpeg, {cv::IMWRITE_JPEG_QUALITY, jpeg_quality});
+      frame = cv::imdecode(jpeg, cv::IMREAD_GRAYSCALE);
+    }
+    // IMT_TEST_DUMP=DIR: every 30th frame as tracked, to look at the scene.
+    if (const char* dump = std::getenv("IMT_TEST_DUMP"); dump && i % 30 == 0)
+      cv::imwrite(std::string(dump) + "/frame" + std::to_string(i) + ".png", frame);
     cache.push(analyzer.process(frame, scene.frameStamp(i)), &reset, frame);
     if (i < add_frame) continue;
     const FrameTruth truth = scene.frameTruth(i);
     const FrameTruth::Target& t = truth.targets.at(0);
     if (i == add_frame) {
-      ASSERT_TRUE(targets.add(t.id, scene.frameStamp(i), t.corners, t.width_m, t.height_m, scene.intrinsics(), &id,
-                              &err))
+      ASSERT_TRUE(targets.add(t.id, scene.frameStamp(i), t.corners, t.width_m, t.height_m,
+                              scene.intrinsics(), &id, &err))
           << err;
       continue;
     }
@@ -193,13 +203,15 @@ OccludedRun trackOccludedPoster(uint64_t seed) {
 
   std::vector<double> errors;
   std::vector<double> covered;  // occluded fraction of the poster per frame (truth)
-  trackRendered(*scene, 0, [&](int i, const FrameTruth::Target& t, const PlanarTargetState& s, double e) {
-    errors.push_back(e);
-    covered.push_back(t.occluded_fraction);
-    if (std::getenv("IMT_TEST_TRACE"))  // per-frame trace for tuning
-      std::printf("%d err %.2f covered %.2f cc %.3f visible %.2f pts %d st %d\n", i, e, t.occluded_fraction,
-                  s.correlation, s.visible, s.points, static_cast<int>(s.status));
-  });
+  trackRendered(*scene, 0,
+                [&](int i, const FrameTruth::Target& t, const PlanarTargetState& s, double e) {
+                  errors.push_back(e);
+                  covered.push_back(t.occluded_fraction);
+                  if (std::getenv("IMT_TEST_TRACE"))  // per-frame trace for tuning
+                    std::printf("%d err %.2f covered %.2f cc %.3f visible %.2f pts %d st %d\n", i,
+                                e, t.occluded_fraction, s.correlation, s.visible, s.points,
+                                static_cast<int>(s.status));
+                });
   if (errors.empty()) return run;
   // Worst error over frames up to 40% covered, more covered, and after the
   // card has left for good (none of the poster covered from then on).
@@ -211,13 +223,68 @@ OccludedRun trackOccludedPoster(uint64_t seed) {
     if (covered[i] > 0) last_covered = i;
   }
   EXPECT_LT(last_covered + 1, errors.size());
-  for (size_t i = last_covered + 1; i < errors.size(); ++i) run.after = std::max(run.after, errors[i]);
+  for (size_t i = last_covered + 1; i < errors.size(); ++i)
+    run.after = std::max(run.after, errors[i]);
   run.median = percentile(errors, 0.5);
   std::printf(
-      "occluded poster, seed %d: up to %.0f%% covered; alignment error median %.3f px, worst %.2f px "
+      "occluded poster, seed %d: up to %.0f%% covered; alignment error median %.3f px, worst %.2f "
+      "px "
       "up to 40%% covered, %.2f px more covered, %.3f px after the card left\n",
-      static_cast<int>(seed), 100 * run.most_covered, run.median, run.partly, run.mostly, run.after);
+      static_cast<int>(seed), 100 * run.most_covered, run.median, run.partly, run.mostly,
+      run.after);
   return run;
+}
+
+// Issue 15's hard scene (poster_handheld): an A4 page held in view by a
+// shaking hand, motion blur, a textured card sweeping across the page and
+// back, JPEG frames (quality 80). The goal: every frame within 5 px (P@5 =
+// 1.0) and a median of 1 px at most.
+TEST(PosterHandheld, ShakeBlurCardAndJpeg) {
+  auto opt = SceneOptions::fromPreset("poster_handheld");
+  ASSERT_TRUE(opt);
+  if (const char* seed = std::getenv("IMT_TEST_SEED")) opt->seed = std::atoi(seed);
+  std::string err;
+  auto scene = SceneGenerator::create(*opt, &err);
+  ASSERT_TRUE(scene) << err;
+  std::vector<double> errors, speeds;  // speeds: the page's fastest corner, px/frame (truth)
+  double most_covered = 0;
+  std::array<cv::Point2d, 4> last_corners = scene->frameTruth(0).targets.at(0).corners;
+  trackRendered(
+      *scene, 0,
+      [&](int i, const FrameTruth::Target& t, const PlanarTargetState& s, double e) {
+        errors.push_back(e);
+        most_covered = std::max(most_covered, t.occluded_fraction);
+        double speed = 0;
+        for (int c = 0; c < 4; ++c)
+          speed = std::max(speed, cv::norm(t.corners[c] - last_corners[c]));
+        speeds.push_back(speed);
+        last_corners = t.corners;
+        if (std::getenv("IMT_TEST_TRACE"))
+          std::printf("%d err %.2f covered %.2f cc %.3f visible %.2f pts %d st %d\n", i, e,
+                      t.occluded_fraction, s.correlation, s.visible, s.points,
+                      static_cast<int>(s.status));
+      },
+      80);
+  ASSERT_FALSE(errors.empty());
+  const double p5 = std::count_if(errors.begin(), errors.end(), [](double e) { return e <= 5; }) /
+                    static_cast<double>(errors.size());
+  std::printf(
+      "handheld page: corners move %.1f px/frame median, %.1f p95, %.1f fastest; up to %.0f%% "
+      "covered; "
+      "P@5 %.3f, median %.3f px, p95 %.2f px, worst %.2f px\n",
+      percentile(speeds, 0.5), percentile(speeds, 0.95),
+      *std::max_element(speeds.begin(), speeds.end()), 100 * most_covered, p5,
+      percentile(errors, 0.5), percentile(errors, 0.95),
+      *std::max_element(errors.begin(), errors.end()));
+  EXPECT_GE(most_covered, 0.4);  // the scene does what it says
+  // The issue's goal is P@5 = 1.0 and a median of 1 px. Measured (seeds 1-4):
+  // median 0.124-0.130 px, worst 0.31-0.67 px; with a whole-frame exposure
+  // (twice the blur) and JPEG quality 50, median 0.45 px and worst 2.2-2.8 px
+  // (seeds 1-2). The bars are about three times this scene's figures, for
+  // another CPU's rounding: worst 2 px, median 0.4 px.
+  EXPECT_EQ(p5, 1.0);
+  EXPECT_LE(*std::max_element(errors.begin(), errors.end()), 2.0);
+  EXPECT_LE(percentile(errors, 0.5), 0.4);
 }
 
 // Over 4 seeds: one run's worst frame is chaotic (where the card's edge
@@ -254,8 +321,9 @@ TEST(PosterOccluded, CardSlidingAcrossThePosterDoesNotDragIt) {
   // occlusion masks, 6.47 and 14.2. The bar leaves 2.5 times the mean for
   // another CPU's rounding. While four fifths are covered the camera motion
   // and the few features left carry it to within a few px.
-  std::printf("occluded poster, seeds 1-%d: mean worst %.2f px up to 40%% covered, %.2f px more covered\n",
-              seeds, partly_sum / seeds, mostly_sum / seeds);
+  std::printf(
+      "occluded poster, seeds 1-%d: mean worst %.2f px up to 40%% covered, %.2f px more covered\n",
+      seeds, partly_sum / seeds, mostly_sum / seeds);
   EXPECT_LE(partly_sum / seeds, 1.5);
   EXPECT_LE(mostly_sum / seeds, 7.0);
 }
@@ -279,23 +347,25 @@ TEST(PosterOutOfView, PredictedWhileOutAndPickedUpAgain) {
   bool was_out = false;
   std::vector<double> back;  // corner error once back in view
   ASSERT_EQ(scene->frameTruth(90).targets.at(0).visible_fraction, 1.0);  // given wholly in view
-  trackRendered(*scene, 90, [&](int i, const FrameTruth::Target& t, const PlanarTargetState& s, double e) {
-    if (std::getenv("IMT_TEST_TRACE"))  // per-frame trace for tuning
-      std::printf("%d err %.2f visible %.2f st %d cc %.3f pts %d\n", i, e, t.visible_fraction,
-                  static_cast<int>(s.status), s.correlation, s.points);
-    if (t.visible_fraction == 0) {
-      was_out = true;
-      ++out_frames;
-      out_status += s.status == TargetStatus::kOutOfView;
-    } else if (was_out && t.visible_fraction >= 0.4) {
-      back.push_back(e);
-    }
-  });
+  trackRendered(
+      *scene, 90, [&](int i, const FrameTruth::Target& t, const PlanarTargetState& s, double e) {
+        if (std::getenv("IMT_TEST_TRACE"))  // per-frame trace for tuning
+          std::printf("%d err %.2f visible %.2f st %d cc %.3f pts %d\n", i, e, t.visible_fraction,
+                      static_cast<int>(s.status), s.correlation, s.points);
+        if (t.visible_fraction == 0) {
+          was_out = true;
+          ++out_frames;
+          out_status += s.status == TargetStatus::kOutOfView;
+        } else if (was_out && t.visible_fraction >= 0.4) {
+          back.push_back(e);
+        }
+      });
   ASSERT_FALSE(HasFatalFailure());
-  std::printf("poster out of view: %d frames out (out_of_view status on %d); back in view: median %.2f px, "
-              "last %.2f px over %zu frames\n",
-              out_frames, out_status, back.empty() ? NAN : percentile(back, 0.5), back.empty() ? NAN : back.back(),
-              back.size());
+  std::printf(
+      "poster out of view: %d frames out (out_of_view status on %d); back in view: median %.2f px, "
+      "last %.2f px over %zu frames\n",
+      out_frames, out_status, back.empty() ? NAN : percentile(back, 0.5),
+      back.empty() ? NAN : back.back(), back.size());
   ASSERT_GT(out_frames, 10) << "the scene should take the poster out of view";
   EXPECT_EQ(out_status, out_frames);
   ASSERT_GT(back.size(), 10u) << "and bring it back";

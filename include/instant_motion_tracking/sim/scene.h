@@ -38,6 +38,12 @@
 //                 51 deg, roll +-30 deg, distance 0.8..2.4 m (scale x3),
 //                 brightness +-25%; the poster is always >= 94% in view.
 //                 20 s (600 frames at 30 fps).
+//   poster_handheld  issue 15's hard scene: an A4 page (0.297 x 0.21 m,
+//                 planar target id 1) on a textured wall, a phone held
+//                 0.43..0.67 m from it with the hand's tremor ("handheld"),
+//                 motion blur of a 1/60 s exposure, and a textured card
+//                 (id 2) 0.2 m in front of the page sweeping across it and
+//                 back (from the left, +-0.25 m over 6 s). 10 s.
 //   floor_walk    camera 1.2 m above a 12 x 20 m textured floor (extending
 //                 10 m behind the start), walking forward at 0.15 m/s,
 //                 pitching (-22 +- 10 deg) and rolling; anchor id 1 on the
@@ -242,6 +248,10 @@ struct SceneOptions {
   //           vehicle shake: +-2 cm bounce at 1.1 Hz, +-4 cm toward/away,
   //           yaw +-1.5, pitch +-1, roll +-1.5 deg (region_follow; a 14 m wide
   //           wall fills the view for t in [0, 11] s)
+  //   handheld 0.43..0.67 m from the wall point (0, 2.5, 0), swaying around it
+  //           (azimuth +-25, elevation +-12, roll +-10 deg) with a hand's tremor:
+  //           yaw +-1.5, pitch +-1.2, roll +-0.6 deg at 2.2-5.3 Hz, +-3 mm
+  //           (poster_handheld)
   std::string trajectory = "pan";
   double trajectory_amplitude = 1.0;  // scales the trajectory's motion (0 = still)
 

@@ -20,7 +20,8 @@ void PlanarTargetNodelet::onInit() {
   add_srv_ = nh.advertiseService("add_planar_target", &PlanarTargetNodelet::addCb, this);
   add_image_srv_ = nh.advertiseService("add_image_target", &PlanarTargetNodelet::addImageCb, this);
   remove_srv_ = nh.advertiseService("remove_planar_target", &PlanarTargetNodelet::removeCb, this);
-  startSession("camera_info", nh.resolveName("motion_data"), "planar targets", {"tracked", "out_of_view", "lost"});
+  startSession("camera_info", nh.resolveName("motion_data"), "planar targets",
+               {"tracked", "predicted", "out_of_view", "lost", "not_found"});
 }
 
 bool PlanarTargetNodelet::wantsImages() const {

@@ -446,7 +446,8 @@ PlanarTargetState fromMsg(const instant_motion_tracking::PlanarTarget& m, double
   s.width_m = m.width_m;
   s.height_m = m.height_m;
   s.status = statusFromName(m.status, targetStatusName,
-                            {TargetStatus::kTracked, TargetStatus::kOutOfView, TargetStatus::kLost, TargetStatus::kNotFound},
+                            {TargetStatus::kTracked, TargetStatus::kOutOfView, TargetStatus::kLost, TargetStatus::kNotFound,
+                             TargetStatus::kPredicted},
                             TargetStatus::kLost);
   s.confidence = m.confidence;
   return s;

@@ -81,7 +81,7 @@ TEST_P(TrackBagPot, JpegBagWithoutCameraInfo) {
     ASSERT_EQ(row.size(), 18u);
     if (!pot.scored(f)) continue;
     double sq = 1e6;  // no corners: counted as lost
-    if (row[17] == "tracked" || row[17] == "out_of_view") {
+    if (row[17] == "tracked" || row[17] == "predicted" || row[17] == "out_of_view") {
       sq = 0;
       for (int c = 0; c < 4; ++c)
         sq += std::pow(std::stod(row[2 + 2 * c]) - pot.corners(f)[c].x, 2) +

@@ -74,6 +74,14 @@ TEST(TrackerOutputConversions, PlanarTargetsRoundTrip) {
   EXPECT_TRUE(back[0].T_cam_target.isApprox(t.T_cam_target, 1e-9));
   EXPECT_EQ(back[0].status, TargetStatus::kOutOfView);
   EXPECT_FLOAT_EQ(back[0].width_m, 0.5);
+  // Every status comes back by its name (predicted is this package's own).
+  for (TargetStatus st : {TargetStatus::kTracked, TargetStatus::kPredicted, TargetStatus::kOutOfView,
+                          TargetStatus::kLost, TargetStatus::kNotFound}) {
+    t.status = st;
+    EXPECT_EQ(fromMsg(toMsg(std::vector<PlanarTargetState>{t}, header(7.0)))[0].status, st)
+        << targetStatusName(st);
+  }
+  t.status = TargetStatus::kOutOfView;
   // A zero quaternion is no pose.
   instant_motion_tracking::PlanarTarget m = toMsg(t);
   m.pose.orientation = geometry_msgs::Quaternion();

@@ -128,6 +128,8 @@ const char* targetStatusName(TargetStatus s) {
       return "out_of_view";
     case TargetStatus::kNotFound:
       return "not_found";
+    case TargetStatus::kPredicted:
+      return "predicted";
     case TargetStatus::kLost:
       break;
   }
@@ -533,6 +535,8 @@ const PlanarTargetState& PlanarTargetTracker::step(const MotionData& md,
     state_.confidence = 0;
   } else if (inside < 0.05 || (!measured && inside < 0.5)) {
     state_.status = TargetStatus::kOutOfView;
+  } else if (!measured) {
+    state_.status = TargetStatus::kPredicted;
   } else {
     state_.status = TargetStatus::kTracked;
   }

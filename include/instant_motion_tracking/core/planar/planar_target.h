@@ -27,8 +27,8 @@
 // Threading: one tracker per thread; copyable (a copy continues independently).
 #pragma once
 
-#include "instant_motion_tracking/core/types.h"
 #include "instant_motion_tracking/core/planar/planar_target_options.h"
+#include "instant_motion_tracking/core/types.h"
 
 #include <Eigen/Geometry>
 #include <opencv2/core.hpp>
@@ -41,9 +41,13 @@
 namespace imt {
 
 // kNotFound: an image target not found yet, or not found again since it was
-// lost (no corners, no pose).
-enum class TargetStatus : uint8_t { kTracked, kOutOfView, kLost, kNotFound };
-const char* targetStatusName(TargetStatus s);  // "tracked", "out_of_view", "lost", "not_found"
+// lost (no corners, no pose). kPredicted: in view, but this frame neither its
+// features nor its appearance placed it (too few features, or a pose that
+// conflicts with the camera motion, and no alignment taken): the camera
+// motion carried it from the last frame.
+enum class TargetStatus : uint8_t { kTracked, kOutOfView, kLost, kNotFound, kPredicted };
+// "tracked", "out_of_view", "lost", "not_found", "predicted"
+const char* targetStatusName(TargetStatus s);
 
 struct PlanarTargetState {
   uint32_t id = 0;
@@ -60,8 +64,11 @@ struct PlanarTargetState {
   double visible =
       0;  // fraction of the target in view that the alignment saw uncovered (0: not aligned)
   std::string reason;  // why lost
-  // Corners and pose are meaningful (tracked, or predicted out of view).
-  bool hasPose() const { return status == TargetStatus::kTracked || status == TargetStatus::kOutOfView; }
+  // Corners and pose are meaningful (tracked, or predicted in or out of view).
+  bool hasPose() const {
+    return status == TargetStatus::kTracked || status == TargetStatus::kOutOfView ||
+           status == TargetStatus::kPredicted;
+  }
 };
 
 // Empty when the four corners form a usable convex quad (TL, TR, BR, BL in

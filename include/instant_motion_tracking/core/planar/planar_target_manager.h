@@ -42,7 +42,8 @@ class PlanarTargetManager {
   // An image target: known by its picture (CV_8UC1 or BGR; its corners are
   // the target's TL, TR, BR, BL), searched for from the cached frame nearest
   // `stamp` (0 = the latest) on while it is not tracked (status not_found
-  // until found; lost or out of view: found again), and tracked like any
+  // until found; lost, out of view or predicted: searched again, and a find
+  // restarts its tracker), and tracked like any
   // target once found. Frames before that one are not_found. Needs the
   // frames' images (PlanarTargetOptions::usesImages()).
   //

@@ -374,8 +374,11 @@ void PlanarTargetTracker::stepPerspective(const MotionData& md, const Eigen::Mat
   // A pose resting on few points that puts the target far from where the
   // camera motion moves it is not used: when something passes in front of
   // the target, the last features left are those its edge drags along, and
-  // they would take the pose (and the model, as they outvote the rest) with
-  // them. The camera motion predicts it instead (step()).
+  // them. The camera motion predicts it instead (step()). "Far" is the
+  // smaller of prediction_gate (a share of the target's size) and four times
+  // how far this target's confirmed poses usually sit from the prediction
+  // (at least 1 px): a poster on a wall moves with the camera motion to a
+  // tenth of a pixel, and a few points 2-7 px off it are an occluder's.
   if (H && static_cast<int>(obs.size()) < 2 * options_.min_points) {
     double gap = 0;
     const auto corners = targetCorners(state_.width_m, state_.height_m);
@@ -383,7 +386,9 @@ void PlanarTargetTracker::stepPerspective(const MotionData& md, const Eigen::Mat
       const Eigen::Vector3d p = *H * Eigen::Vector3d(state_.corners[i].x, state_.corners[i].y, 1);
       gap = std::max(gap, (project(corners[i]) - p.head<2>() / p.z()).norm());
     }
-    if (gap > options_.prediction_gate * longestEdge(state_.corners) + 1.0) {
+    const double gate = options_.prediction_gate * longestEdge(state_.corners) + 1.0;
+    const double usual = prediction_level_ < 0 ? gate : std::max(1.0, 4 * prediction_level_);
+    if (gap > std::min(gate, usual)) {
       state_.T_cam_target = T_last;
       state_.points = 0;
       return;
@@ -500,6 +505,13 @@ const PlanarTargetState& PlanarTargetTracker::step(const MotionData& md,
   if (state_.status == TargetStatus::kLost) return state_;
   const bool perspective = options_.model == "perspective";
   const bool predictable = H_valid && H_last_to_this.allFinite();
+  std::array<cv::Point2d, 4> predicted_corners = state_.corners;
+  if (predictable)
+    for (int i = 0; i < 4; ++i) {
+      const Eigen::Vector3d p =
+          H_last_to_this * Eigen::Vector3d(state_.corners[i].x, state_.corners[i].y, 1);
+      predicted_corners[i] = cv::Point2d(p.x() / p.z(), p.y() / p.z());
+    }
   if (perspective) {
     stepPerspective(md, predictable ? &H_last_to_this : nullptr);
   } else {
@@ -516,6 +528,15 @@ const PlanarTargetState& PlanarTargetTracker::step(const MotionData& md,
     measured = true;
   }
   if (state_.correlation == 0) ++frames_unaligned_;
+  // A pose the look confirmed, or many points: how far it sits from the
+  // camera motion's prediction is what this target usually does.
+  if (predictable && perspective &&
+      (state_.correlation > 0 || state_.points >= 2 * options_.min_points)) {
+    double gap = 0;
+    for (int i = 0; i < 4; ++i)
+      gap = std::max(gap, cv::norm(predicted_corners[i] - state_.corners[i]));
+    prediction_level_ = prediction_level_ < 0 ? gap : 0.8 * prediction_level_ + 0.2 * gap;
+  }
   // Back in view after a prediction: features inside the predicted quad
   // become candidates, and the rigid fit takes over once enough join.
   if (measured || fractionInside(state_.corners, md.width, md.height) > 0.05) addNewPoints(md);

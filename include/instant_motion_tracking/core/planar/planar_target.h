@@ -138,6 +138,9 @@ class PlanarTargetTracker {
   std::map<uint32_t, Eigen::Vector2d> last_px_;     // last frame's positions (homography model)
   double residual_level_ = 0;  // px, smoothed noise level of the model points' residuals
   int frames_unaligned_ = 0;   // frames since the appearance alignment was last used
+  // px, smoothed distance of the confirmed poses' corners from the camera
+  // motion's prediction: how well this target usually moves with it.
+  double prediction_level_ = -1;  // < 0: not measured yet
   std::shared_ptr<const Appearance> appearance_;  // shared by copies (forward/backward)
 };
 

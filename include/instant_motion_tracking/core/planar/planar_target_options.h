@@ -69,7 +69,8 @@ struct PlanarTargetOptions {
     v("confidence_points", confidence_points, "model points at which the confidence reaches 1");
     v("prediction_gate", prediction_gate,
       "fraction of the target's size; a pose from fewer than 2 x min_points points farther than "
-      "this from the camera-motion prediction is not used (an occluder drags the last features)");
+      "this (or than 4 x how far the target's confirmed poses usually are, at least 1 px) from "
+      "the camera-motion prediction is not used (an occluder drags the last features)");
     v("refine", refine, "align the target's look at placement with each frame (ECC): no drift");
     v("template_size", template_size, "px; long side of the rectified template kept at placement");
     v("refine_min_correlation", refine_min_correlation,

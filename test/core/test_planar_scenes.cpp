@@ -18,6 +18,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <functional>
 
 namespace imt {
 namespace {
@@ -30,9 +31,11 @@ using test::percentile;
 // `add_frame` (the generator's corners and size), and calls
 // visit(frame, truth target, state, corner RMS error) for every later frame.
 // jpeg_quality > 0: every frame goes through JPEG at that quality first, as
-// from a phone's or a webcam's compressed stream.
+// from a phone's or a webcam's compressed stream; `alter` (if set) may
+// change each rendered frame before it is tracked.
 template <class Visit>
-void trackRendered(const SceneGenerator& scene, int add_frame, Visit visit, int jpeg_quality = 0) {
+void trackRendered(const SceneGenerator& scene, int add_frame, Visit visit, int jpeg_quality = 0,
+                   const std::function<void(int, cv::Mat&)>& alter = {}) {
   MotionAnalyzer analyzer{MotionAnalysisOptions()};
   MotionCache cache(0.0);
   cache.setImageBudget(size_t(1) << 30);
@@ -42,6 +45,7 @@ void trackRendered(const SceneGenerator& scene, int add_frame, Visit visit, int 
   for (int i = 0; i < scene.frameCount(); ++i) {
     std::string reset;
     cv::Mat frame = scene.renderFrame(i);
+    if (alter) alter(i, frame);
     if (jpeg_quality > 0) {
       std::vector<uchar> jpeg;
       cv::imencode(".jpg", frame, jpeg, {cv::IMWRITE_JPEG_QUALITY, jpeg_quality});
@@ -392,6 +396,50 @@ TEST(PosterOutOfView, PredictedWhileOutAndPickedUpAgain) {
   // median once back; 1 px is the drift-free bar for the last frame.
   EXPECT_LE(percentile(back, 0.5), 1.0);
   EXPECT_LE(back.back(), 1.0);
+}
+
+// The camera is covered (a hand, a passer-by) for a second while it keeps
+// moving: the frames are flat gray, no camera motion is measured, and when
+// the view comes back the target is elsewhere (poster_orbit, 124 px away).
+// Features alone would take the background's inside the stale quad for the
+// target; its look at placement finds it again by its keypoints.
+TEST(PosterCovered, CameraBlindForASecondThenFoundAgain) {
+  auto opt = SceneOptions::fromPreset("poster_orbit");
+  ASSERT_TRUE(opt);
+  opt->duration = 10.0;
+  std::string err;
+  auto scene = SceneGenerator::create(*opt, &err);
+  ASSERT_TRUE(scene) << err;
+  const int blind_from = 150, blind_frames = 30;
+  std::vector<double> after;  // corner error from 0.5 s after the view is back
+  double jump = 0;
+  std::array<cv::Point2d, 4> before_corners{};
+  trackRendered(
+      *scene, 0,
+      [&](int i, const FrameTruth::Target& t, const PlanarTargetState& s, double e) {
+        if (i == blind_from - 1) before_corners = t.corners;
+        if (i == blind_from + blind_frames)
+          for (int c = 0; c < 4; ++c) jump = std::max(jump, cv::norm(t.corners[c] - before_corners[c]));
+        if (std::getenv("IMT_TEST_TRACE"))
+          std::printf("%d err %.2f st %d cc %.3f pts %d\n", i, e, static_cast<int>(s.status),
+                      s.correlation, s.points);
+        if (i >= blind_from + blind_frames + 15) after.push_back(e);
+      },
+      0,
+      [&](int i, cv::Mat& frame) {
+        if (i >= blind_from && i < blind_from + blind_frames) frame.setTo(40);
+      });
+  ASSERT_FALSE(after.empty());
+  std::printf(
+      "covered camera: the poster moved %.0f px while blind; from 0.5 s after: median %.2f px, "
+      "worst %.2f px, last %.2f px\n",
+      jump, percentile(after, 0.5), *std::max_element(after.begin(), after.end()), after.back());
+  EXPECT_GT(jump, 50);  // the scene does what it says
+  // Measured: found by the search of the first frame back (answered 5
+  // frames later), then median 0.18 px, worst 0.28, last 0.28 px; before
+  // (no search) 62 / 86 / 80 px, with status `tracked`. 1 px is the issue's
+  // drift-free bar.
+  EXPECT_LE(*std::max_element(after.begin(), after.end()), 1.0);
 }
 
 }  // namespace

@@ -72,6 +72,16 @@ bool PlanarTargetTracker::captureAppearance(const cv::Mat& gray, const cv::Mat& 
   return true;
 }
 
+cv::Mat PlanarTargetTracker::lookAtPlacement() const {
+  if (!appearance_ || appearance_->levels.empty()) return cv::Mat();
+  const cv::Mat& level = appearance_->levels[0];
+  const cv::Mat& seen = appearance_->masks[0];
+  cv::Mat look;
+  level.convertTo(look, CV_8U);
+  look.setTo(cv::mean(look, seen), ~seen);
+  return look;
+}
+
 // Aligns the appearance at placement with `gray` by ECC (alignEcc: the
 // correlation findTransformECC maximises, a homography on the rectified
 // target, coarse to fine),

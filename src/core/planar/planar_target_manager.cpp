@@ -22,10 +22,11 @@ const PlanarTargetState& PlanarTargetManager::advance(Target& t, uint64_t seq) {
     PlanarTargetState s = t.not_found;
     s.stamp = cache.at(t.seq_fwd).stamp;
     if (t.forward) s = t.forward->step(cache.at(t.seq_fwd), H, valid, cache.image(t.seq_fwd));
+    t.unaligned = s.correlation > 0 ? 0 : t.unaligned + 1;
     if (t.picture) s = findImageTarget(t, t.seq_fwd, s);
     t.states[t.seq_fwd] = s;
   }
-  if (seq < t.seq_bwd && t.picture) {  // an image target is searched for forwards only
+  if (seq < t.seq_bwd && t.image_target) {  // an image target is searched for forwards only
     for (; t.seq_bwd > seq && t.seq_bwd > cache.firstSeq(); --t.seq_bwd) {
       t.states[t.seq_bwd - 1] = t.not_found;
       t.states[t.seq_bwd - 1].stamp = cache.at(t.seq_bwd - 1).stamp;
@@ -88,6 +89,17 @@ bool PlanarTargetManager::add(uint32_t id, double stamp, const std::array<cv::Po
       PlanarTargetTracker::create(options_, id, corners, width_m, height_m, k, cache.at(seq), error, cache.image(seq));
   if (!tracker) return false;
   Target t;
+  // Found again by its look at placement when its tracker is in doubt.
+  if (options_.usesImages()) {
+    std::string why;
+    if (const cv::Mat look = tracker->lookAtPlacement(); !look.empty())
+      t.picture = ImageTargetDetector::create(look, options_, &why);
+    t.camera = k;
+    t.not_found.id = id;
+    t.not_found.width_m = width_m;
+    t.not_found.height_m = height_m;
+    t.next_search = seq + 1;
+  }
   t.backward = std::make_unique<PlanarTargetTracker>(*tracker);
   t.forward = std::move(tracker);
   t.seq_fwd = t.seq_bwd = seq;
@@ -134,6 +146,7 @@ bool PlanarTargetManager::addImage(uint32_t id, double stamp, const cv::Mat& pic
   if (!checkNewTarget(&id, error)) return false;
   Target t;
   t.picture = std::move(detector);
+  t.image_target = true;
   t.camera = k;
   t.not_found.id = id;
   t.not_found.width_m = width_m;
@@ -154,11 +167,12 @@ bool PlanarTargetManager::addImage(uint32_t id, double stamp, const cv::Mat& pic
 PlanarTargetState PlanarTargetManager::findImageTarget(Target& t, uint64_t seq, const PlanarTargetState& s) {
   const MotionCache& cache = *cache_;
   PlanarTargetState out = s;
+  const bool doubt = s.status != TargetStatus::kTracked || t.unaligned >= options_.detect_interval;
   if (t.search.valid() && seq >= t.search_seq + options_.detect_interval) {
     const std::optional<ImageTargetDetector::Detection> found = t.search.get();
     const uint64_t from = t.search_seq;
     std::string why;
-    if (found && s.status != TargetStatus::kTracked && from >= cache.firstSeq()) {
+    if (found && doubt && from >= cache.firstSeq()) {
       auto tracker = PlanarTargetTracker::create(options_, t.not_found.id, found->corners, t.not_found.width_m,
                                                  t.not_found.height_m, t.camera, cache.at(from), &why,
                                                  cache.image(from), t.picture->picture());
@@ -174,7 +188,7 @@ PlanarTargetState PlanarTargetManager::findImageTarget(Target& t, uint64_t seq, 
     }
     t.next_search = std::max(t.next_search, seq);
   }
-  if (out.status == TargetStatus::kTracked || t.search.valid() || seq < t.next_search) return out;
+  if (!doubt || t.search.valid() || seq < t.next_search) return out;
   const cv::Mat gray = cache.image(seq);
   if (gray.empty()) return out;  // a frame without its image: the next one is searched
   t.search_seq = seq;

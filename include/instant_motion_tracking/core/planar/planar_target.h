@@ -108,6 +108,11 @@ class PlanarTargetTracker {
   const PlanarTargetState& step(const MotionData& md, const Eigen::Matrix3d& H_last_to_this,
                                 bool H_valid, const cv::Mat& gray = cv::Mat());
   const PlanarTargetState& state() const { return state_; }
+  // The target's look at placement, rectified (CV_8UC1, the template the
+  // alignment uses; what the frame did not show there filled with its mean):
+  // the picture a target given by its corners is found again by. Empty
+  // without an appearance (refine off, model homography, no image).
+  cv::Mat lookAtPlacement() const;
 
  private:
   PlanarTargetTracker() = default;

@@ -36,7 +36,11 @@ class PlanarTargetManager {
   // Advances every target to the newest frame of the cache.
   std::vector<PlanarTargetState> update();
   // A target given by its corners at the cached frame nearest `stamp` (0 =
-  // the latest), seen through camera `k`; id 0 chooses a free id.
+  // the latest), seen through camera `k`; id 0 chooses a free id. With the
+  // frames' images its look at placement also becomes a picture it is
+  // searched for by (as an image target is, below) while its tracker is in
+  // doubt: not tracked, or not confirmed by its look for detect_interval
+  // frames; a find restarts its tracker there.
   bool add(uint32_t id, double stamp, const std::array<cv::Point2d, 4>& corners, double width_m,
            double height_m, const CameraModel& k, uint32_t* assigned_id, std::string* error);
   // An image target: known by its picture (CV_8UC1 or BGR; its corners are
@@ -72,8 +76,12 @@ class PlanarTargetManager {
     std::unique_ptr<PlanarTargetTracker> forward, backward;  // at seq_fwd / seq_bwd
     uint64_t seq_fwd = 0, seq_bwd = 0;
     std::map<uint64_t, PlanarTargetState> states;
-    // Image targets only: the picture, and what starting a tracker needs.
+    // The picture it is found by (an image target's own; a target given by
+    // its corners: its look at placement, when that has the keypoints), and
+    // what starting a tracker needs.
     std::shared_ptr<const ImageTargetDetector> picture;
+    bool image_target = false;    // given by its picture (searched for forwards only)
+    int unaligned = 0;            // frames since its look last confirmed it
     PlanarTargetState not_found;  // the state while no tracker follows it
     CameraModel camera;
     uint64_t next_search = 0;  // the next frame a search starts at
@@ -81,10 +89,11 @@ class PlanarTargetManager {
     std::future<std::optional<ImageTargetDetector::Detection>> search;  // valid while one runs
   };
   const PlanarTargetState& advance(Target& t, uint64_t seq);
-  // An image target at frame `seq` whose tracker (if any) gave `s`: the
-  // answer of its search taken when due (found: a new tracker from the
-  // searched frame, stepped to `seq`), and a new search started when it is
-  // not tracked.
+  // A target with a picture at frame `seq` whose tracker (if any) gave `s`:
+  // the answer of its search taken when due (found: a new tracker from the
+  // searched frame, stepped to `seq`), and a new search started while it is
+  // in doubt: not tracked, or its look has not confirmed it for
+  // detect_interval frames.
   PlanarTargetState findImageTarget(Target& t, uint64_t seq, const PlanarTargetState& s);
   // The frame's keypoints, described once (on a search's thread) for every
   // image target searching it.

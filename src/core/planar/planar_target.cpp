@@ -528,6 +528,12 @@ const PlanarTargetState& PlanarTargetTracker::step(const MotionData& md,
     measured = true;
   }
   if (state_.correlation == 0) ++frames_unaligned_;
+  // Carried by the camera motion, a target's place is a prediction until its
+  // look confirms it: features that join it after the prediction may be
+  // whatever lies in the predicted quad (the background, when the camera
+  // was blind while it moved).
+  if (!measured) unconfirmed_ = true;
+  if (state_.correlation > 0 || !appearance_) unconfirmed_ = false;
   // A pose the look confirmed, or many points: how far it sits from the
   // camera motion's prediction is what this target usually does.
   if (predictable && perspective &&
@@ -556,8 +562,9 @@ const PlanarTargetState& PlanarTargetTracker::step(const MotionData& md,
     state_.confidence = 0;
   } else if (inside < 0.05 || (!measured && inside < 0.5)) {
     state_.status = TargetStatus::kOutOfView;
-  } else if (!measured) {
+  } else if (!measured || unconfirmed_) {
     state_.status = TargetStatus::kPredicted;
+    state_.confidence = std::min(state_.confidence, 0.2);
   } else {
     state_.status = TargetStatus::kTracked;
   }

@@ -41,10 +41,12 @@
 namespace imt {
 
 // kNotFound: an image target not found yet, or not found again since it was
-// lost (no corners, no pose). kPredicted: in view, but this frame neither its
-// features nor its appearance placed it (too few features, or a pose that
-// conflicts with the camera motion, and no alignment taken): the camera
-// motion carried it from the last frame.
+// lost (no corners, no pose). kPredicted: in view, but its place rests on the
+// camera motion's prediction: this frame neither its features nor its
+// appearance placed it (too few features, or a pose that conflicts with the
+// camera motion, and no alignment taken), or its look has not confirmed it
+// since it was last carried so (the features that joined it meanwhile may be
+// whatever lay in the predicted quad).
 enum class TargetStatus : uint8_t { kTracked, kOutOfView, kLost, kNotFound, kPredicted };
 // "tracked", "out_of_view", "lost", "not_found", "predicted"
 const char* targetStatusName(TargetStatus s);
@@ -146,6 +148,7 @@ class PlanarTargetTracker {
   // px, smoothed distance of the confirmed poses' corners from the camera
   // motion's prediction: how well this target usually moves with it.
   double prediction_level_ = -1;  // < 0: not measured yet
+  bool unconfirmed_ = false;  // carried by the camera motion since its look last confirmed it
   std::shared_ptr<const Appearance> appearance_;  // shared by copies (forward/backward)
 };
 

@@ -328,7 +328,7 @@ TEST(PosterOccluded, CardSlidingAcrossThePosterDoesNotDragIt) {
     EXPECT_LE(r.after, 0.5) << "seed " << seed;
     // The status says when the card took the evidence (features and look)
     // and the camera motion carried the poster: `predicted`, and only then
-    // (measured 4 / 4 / 3 / 1 frames on seeds 1-4, at 46-72% covered).
+    // (measured 4 / 4 / 4 / 2 frames on seeds 1-4, at 46-72% covered).
     EXPECT_EQ(r.predicted_uncovered, 0) << "seed " << seed;
     predicted += r.predicted;
     partly_sum += r.partly;

@@ -438,10 +438,12 @@ TEST(PosterCovered, CameraBlindForASecondThenFoundAgain) {
       jump, percentile(after, 0.5), *std::max_element(after.begin(), after.end()), after.back());
   EXPECT_GT(jump, 50);  // the scene does what it says
   // Measured: found by the search of the first frame back (answered 5
-  // frames later), then median 0.18 px, worst 0.28, last 0.28 px; before
-  // (no search) 62 / 86 / 80 px, with status `tracked`. 1 px is the issue's
-  // drift-free bar.
-  EXPECT_LE(*std::max_element(after.begin(), after.end()), 1.0);
+  // frames later), then median 0.01 px, worst 0.02, last 0.02 px (0.18 /
+  // 0.28 px while the found target's look was blown up to template_size, as
+  // an image target's picture is); before (no search) 62 / 86 / 80 px, with
+  // status `tracked`. Found, it is as precise as a tracked target
+  // (poster_orbit: median 0.017 px); the bar leaves 10x for another CPU.
+  EXPECT_LE(*std::max_element(after.begin(), after.end()), 0.2);
   // Until then it is not said to be tracked: carried by the camera motion
   // (blind, then the features in the stale quad until the look confirms
   // them), it is `predicted`.

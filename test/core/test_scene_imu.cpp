@@ -38,7 +38,8 @@ double gyroIntegrationErrorDeg(const SceneGenerator& scene) {
 }
 
 TEST(SceneImu, GyroIntegrationReproducesTheTrajectory) {
-  for (const std::string name : {"wall_pan", "poster_orbit", "floor_walk", "region_follow"}) {
+  for (const std::string name :
+       {"wall_pan", "poster_orbit", "floor_walk", "region_follow", "poster_handheld"}) {
     SceneOptions o = preset(name);
     o.duration = 10;
     for (ScenePlane& p : o.planes) p.flat = true;  // no textures needed here

@@ -387,7 +387,10 @@ void PlanarTargetTracker::stepPerspective(const MotionData& md, const Eigen::Mat
       gap = std::max(gap, (project(corners[i]) - p.head<2>() / p.z()).norm());
     }
     const double gate = options_.prediction_gate * longestEdge(state_.corners) + 1.0;
-    const double usual = prediction_level_ < 0 ? gate : std::max(1.0, 4 * prediction_level_);
+    // (Only where the look can take over from a refused pose: without one
+    // the camera motion would carry it on its own.)
+    const double usual =
+        prediction_level_ < 0 || !appearance_ ? gate : std::max(1.0, 4 * prediction_level_);
     if (gap > std::min(gate, usual)) {
       state_.T_cam_target = T_last;
       state_.points = 0;
@@ -531,9 +534,10 @@ const PlanarTargetState& PlanarTargetTracker::step(const MotionData& md,
   // Carried by the camera motion, a target's place is a prediction until its
   // look confirms it: features that join it after the prediction may be
   // whatever lies in the predicted quad (the background, when the camera
-  // was blind while it moved).
+  // was blind while it moved). Without a look, or a frame without its image,
+  // the features have the last word.
   if (!measured) unconfirmed_ = true;
-  if (state_.correlation > 0 || !appearance_) unconfirmed_ = false;
+  if (state_.correlation > 0 || !appearance_ || gray.empty()) unconfirmed_ = false;
   // A pose the look confirmed, or many points: how far it sits from the
   // camera motion's prediction is what this target usually does.
   if (predictable && perspective &&

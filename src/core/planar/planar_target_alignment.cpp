@@ -33,7 +33,10 @@ bool PlanarTargetTracker::captureAppearance(const cv::Mat& gray, const cv::Mat& 
   const double seen = longestEdge(state_.corners);
   // From the frame no finer than it sees the target; a picture is sharp at
   // any size (the alignment picks the level the frame needs).
-  const double long_px = picture.empty() ? std::min<double>(options_.template_size, seen) : options_.template_size;
+  // (A picture smaller than template_size is kept at its own size: a look at
+  // placement found again, cut from a frame.)
+  const double long_px = std::min<double>(
+      options_.template_size, picture.empty() ? seen : std::max(picture.cols, picture.rows));
   const int W = std::max(16, static_cast<int>(std::lround(long_px * w / std::max(w, h))));
   const int H = std::max(16, static_cast<int>(std::lround(long_px * h / std::max(w, h))));
   auto a = std::make_shared<Appearance>();
@@ -76,6 +79,7 @@ cv::Mat PlanarTargetTracker::lookAtPlacement() const {
   if (!appearance_ || appearance_->levels.empty()) return cv::Mat();
   const cv::Mat& level = appearance_->levels[0];
   const cv::Mat& seen = appearance_->masks[0];
+  if (cv::countNonZero(seen) < 0.99 * seen.total()) return cv::Mat();  // not seen whole
   cv::Mat look;
   level.convertTo(look, CV_8U);
   look.setTo(cv::mean(look, seen), ~seen);

@@ -89,7 +89,9 @@ bool PlanarTargetManager::add(uint32_t id, double stamp, const std::array<cv::Po
       PlanarTargetTracker::create(options_, id, corners, width_m, height_m, k, cache.at(seq), error, cache.image(seq));
   if (!tracker) return false;
   Target t;
-  // Found again by its look at placement when its tracker is in doubt.
+  // Found again by its look at placement when its tracker is in doubt (a
+  // look the frame showed whole only: a part it did not show would be a
+  // flat patch in the picture, which the found target's look would keep).
   if (options_.usesImages()) {
     std::string why;
     if (const cv::Mat look = tracker->lookAtPlacement(); !look.empty())
@@ -184,11 +186,14 @@ PlanarTargetState PlanarTargetManager::findImageTarget(Target& t, uint64_t seq, 
         }
         t.forward = std::move(tracker);
         out = t.forward->state();
+        t.unaligned = out.correlation > 0 ? 0 : 1;  // the new tracker's own count
       }
     }
     t.next_search = std::max(t.next_search, seq);
   }
-  if (!doubt || t.search.valid() || seq < t.next_search) return out;
+  // In doubt now (after a find: the new tracker's state).
+  const bool doubt_now = out.status != TargetStatus::kTracked || t.unaligned >= options_.detect_interval;
+  if (!doubt_now || t.search.valid() || seq < t.next_search) return out;
   const cv::Mat gray = cache.image(seq);
   if (gray.empty()) return out;  // a frame without its image: the next one is searched
   t.search_seq = seq;

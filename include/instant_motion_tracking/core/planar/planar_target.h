@@ -111,9 +111,9 @@ class PlanarTargetTracker {
                                 bool H_valid, const cv::Mat& gray = cv::Mat());
   const PlanarTargetState& state() const { return state_; }
   // The target's look at placement, rectified (CV_8UC1, the template the
-  // alignment uses; what the frame did not show there filled with its mean):
-  // the picture a target given by its corners is found again by. Empty
-  // without an appearance (refine off, model homography, no image).
+  // alignment uses): the picture a target given by its corners is found
+  // again by. Empty without an appearance (refine off, model homography, no
+  // image) or when the frame did not show the whole target then.
   cv::Mat lookAtPlacement() const;
 
  private:

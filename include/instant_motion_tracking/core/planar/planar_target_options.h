@@ -101,9 +101,9 @@ struct PlanarTargetOptions {
       "planar targets tracked at most (each costs milliseconds per frame); add_planar_target and INIT.yaml "
       "are refused beyond");
     v("detect_interval", detect_interval,
-      "frames after which a search for an image target not tracked (not found yet, lost or out of view), run "
-      "on a thread of its own, is answered (a find starts the tracker at the searched frame); the next search "
-      "starts then");
+      "frames after which a search for a target in doubt (an image target not found yet; any target "
+      "predicted, out of view, lost, or not confirmed by its look for this many frames), run on a thread of "
+      "its own, is answered (a find starts the tracker at the searched frame); the next search starts then");
     v("detect_features", detect_features, "ORB keypoints described in a frame for finding image targets");
     v("detect_picture_size", detect_picture_size,
       "px; an image target's picture is described at this long side (scaled down or up to it)");

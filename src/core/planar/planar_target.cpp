@@ -351,7 +351,8 @@ void PlanarTargetTracker::addNewPoints(const MotionData& md) {
   rejected_ = std::move(rejected);
 }
 
-void PlanarTargetTracker::stepPerspective(const MotionData& md, const Eigen::Matrix3d* H) {
+void PlanarTargetTracker::stepPerspective(const MotionData& md,
+                                          const std::array<cv::Point2d, 4>* predicted) {
   std::vector<PlaneObservation> obs;
   for (const FeatureMotion& f : md.features) {
     const auto m = model_.find(f.id);
@@ -374,18 +375,19 @@ void PlanarTargetTracker::stepPerspective(const MotionData& md, const Eigen::Mat
   // A pose resting on few points that puts the target far from where the
   // camera motion moves it is not used: when something passes in front of
   // the target, the last features left are those its edge drags along, and
+  // they would take the pose (and the model, as they outvote the rest) with
   // them. The camera motion predicts it instead (step()). "Far" is the
   // smaller of prediction_gate (a share of the target's size) and four times
   // how far this target's confirmed poses usually sit from the prediction
   // (at least 1 px): a poster on a wall moves with the camera motion to a
   // tenth of a pixel, and a few points 2-7 px off it are an occluder's.
-  if (H && static_cast<int>(obs.size()) < 2 * options_.min_points) {
+  if (predicted && static_cast<int>(obs.size()) < 2 * options_.min_points) {
     double gap = 0;
     const auto corners = targetCorners(state_.width_m, state_.height_m);
-    for (int i = 0; i < 4; ++i) {
-      const Eigen::Vector3d p = *H * Eigen::Vector3d(state_.corners[i].x, state_.corners[i].y, 1);
-      gap = std::max(gap, (project(corners[i]) - p.head<2>() / p.z()).norm());
-    }
+    for (int i = 0; i < 4; ++i)
+      gap = std::max(gap, (project(corners[i]) -
+                           Eigen::Vector2d((*predicted)[i].x, (*predicted)[i].y))
+                              .norm());
     const double gate = options_.prediction_gate * longestEdge(state_.corners) + 1.0;
     // (Only where the look can take over from a refused pose: without one
     // the camera motion would carry it on its own.)
@@ -484,12 +486,7 @@ void PlanarTargetTracker::stepHomography(const MotionData& md) {
   poseFromCorners(c);
 }
 
-void PlanarTargetTracker::predict(const Eigen::Matrix3d& H) {
-  std::array<cv::Point2d, 4> c;
-  for (int i = 0; i < 4; ++i) {
-    const Eigen::Vector3d p = H * Eigen::Vector3d(state_.corners[i].x, state_.corners[i].y, 1);
-    c[i] = cv::Point2d(p.x() / p.z(), p.y() / p.z());
-  }
+void PlanarTargetTracker::predict(const std::array<cv::Point2d, 4>& c) {
   if (validateQuad(c).empty() && poseFromCorners(c)) {
     if (options_.model == "perspective") {
       projectCorners();
@@ -508,6 +505,7 @@ const PlanarTargetState& PlanarTargetTracker::step(const MotionData& md,
   if (state_.status == TargetStatus::kLost) return state_;
   const bool perspective = options_.model == "perspective";
   const bool predictable = H_valid && H_last_to_this.allFinite();
+  // Where the camera motion moves the last frame's corners.
   std::array<cv::Point2d, 4> predicted_corners = state_.corners;
   if (predictable)
     for (int i = 0; i < 4; ++i) {
@@ -516,13 +514,13 @@ const PlanarTargetState& PlanarTargetTracker::step(const MotionData& md,
       predicted_corners[i] = cv::Point2d(p.x() / p.z(), p.y() / p.z());
     }
   if (perspective) {
-    stepPerspective(md, predictable ? &H_last_to_this : nullptr);
+    stepPerspective(md, predictable ? &predicted_corners : nullptr);
   } else {
     stepHomography(md);
   }
   bool measured = state_.points >= options_.min_points;
   if (measured && perspective) projectCorners();
-  if (!measured && predictable) predict(H_last_to_this);
+  if (!measured && predictable) predict(predicted_corners);
   if (perspective && options_.refine && !gray.empty() &&
       fractionInside(state_.corners, md.width, md.height) > 0.2 && refine(gray)) {
     frames_unaligned_ = 0;

@@ -169,7 +169,11 @@ bool PlanarTargetManager::addImage(uint32_t id, double stamp, const cv::Mat& pic
 PlanarTargetState PlanarTargetManager::findImageTarget(Target& t, uint64_t seq, const PlanarTargetState& s) {
   const MotionCache& cache = *cache_;
   PlanarTargetState out = s;
-  const bool doubt = s.status != TargetStatus::kTracked || t.unaligned >= options_.detect_interval;
+  // Not tracked, or not confirmed by its look for detect_interval frames.
+  const auto inDoubt = [&](const PlanarTargetState& state) {
+    return state.status != TargetStatus::kTracked || t.unaligned >= options_.detect_interval;
+  };
+  const bool doubt = inDoubt(s);
   if (t.search.valid() && seq >= t.search_seq + options_.detect_interval) {
     const std::optional<ImageTargetDetector::Detection> found = t.search.get();
     const uint64_t from = t.search_seq;
@@ -192,8 +196,7 @@ PlanarTargetState PlanarTargetManager::findImageTarget(Target& t, uint64_t seq, 
     t.next_search = std::max(t.next_search, seq);
   }
   // In doubt now (after a find: the new tracker's state).
-  const bool doubt_now = out.status != TargetStatus::kTracked || t.unaligned >= options_.detect_interval;
-  if (!doubt_now || t.search.valid() || seq < t.next_search) return out;
+  if (!inDoubt(out) || t.search.valid() || seq < t.next_search) return out;
   const cv::Mat gray = cache.image(seq);
   if (gray.empty()) return out;  // a frame without its image: the next one is searched
   t.search_seq = seq;

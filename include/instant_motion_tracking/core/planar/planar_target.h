@@ -123,9 +123,11 @@ class PlanarTargetTracker {
   Eigen::Vector2d project(const Eigen::Vector3d& p_target) const;
   bool backProject(const Eigen::Vector2d& px, Eigen::Vector2d* xy) const;
   void addNewPoints(const MotionData& md);
-  void stepPerspective(const MotionData& md, const Eigen::Matrix3d* H_last_to_this);
+  // `predicted`: the last frame's corners moved by the camera motion (null
+  // when it is not known).
+  void stepPerspective(const MotionData& md, const std::array<cv::Point2d, 4>* predicted);
   void stepHomography(const MotionData& md);
-  void predict(const Eigen::Matrix3d& H);
+  void predict(const std::array<cv::Point2d, 4>& predicted);  // corners as the camera motion moved them
   // Appearance (template) alignment, see planar_target.cpp.
   struct Appearance;
   Eigen::Matrix3d planeToImage() const;

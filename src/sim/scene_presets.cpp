@@ -54,6 +54,18 @@ Eigen::Isometry3d pose(const Eigen::Matrix3d& R, const Eigen::Vector3d& p) {
   return T;
 }
 
+// A camera at distance r from the point c of the wall, at azimuth `az` and
+// elevation `el` (rad; 0, 0: straight in front of it), aiming at c + `aim`
+// and rolled by `roll` about its optical axis.
+Eigen::Isometry3d aroundPoint(const Eigen::Vector3d& c, double az, double el, double r,
+                              const Eigen::Vector3d& aim, double roll) {
+  const Eigen::Vector3d dir(std::sin(az) * std::cos(el), -std::cos(az) * std::cos(el),
+                            std::sin(el));
+  const Eigen::Vector3d p = c + r * dir;
+  const Eigen::Matrix3d R = lookRotation(c + aim - p, Eigen::Vector3d::UnitZ());
+  return pose(R * yawPitchRoll(0, 0, roll), p);
+}
+
 // Wall scenes: the camera starts at the origin looking along +y at the wall.
 const Eigen::Matrix3d& wallView() {
   static const Eigen::Matrix3d R = lookRotation(Eigen::Vector3d::UnitY(), Eigen::Vector3d::UnitZ());
@@ -106,17 +118,10 @@ Eigen::Isometry3d trajectoryPose(const std::string& name, double a, double t) {
   if (name == "orbit") {
     // Around the poster centre c: azimuth extremes (+-48 deg) come with the
     // shortest distance (0.8 m), the farthest view (2.4 m) is frontal.
-    const Eigen::Vector3d c(0, kWallDistance, 0);
-    const double az = wave(48 * kDeg * a, 16, 0, t);
-    const double el = wave(20 * kDeg * a, 11, 0.7, t);
-    const double r = 1.6 + 0.8 * a * std::cos(2 * M_PI * t / 8);
-    const Eigen::Vector3d dir(std::sin(az) * std::cos(el), -std::cos(az) * std::cos(el),
-                              std::sin(el));
-    const Eigen::Vector3d p = c + r * dir;
-    const Eigen::Vector3d q =
-        c + Eigen::Vector3d(wave(0.08 * a, 5, 0, t), 0, wave(0.06 * a, 6, 1.0, t));
-    const Eigen::Matrix3d R = lookRotation(q - p, Eigen::Vector3d::UnitZ());
-    return pose(R * yawPitchRoll(0, 0, wave(30 * kDeg * a, 9, 0.4, t)), p);
+    return aroundPoint(Eigen::Vector3d(0, kWallDistance, 0), wave(48 * kDeg * a, 16, 0, t),
+                       wave(20 * kDeg * a, 11, 0.7, t), 1.6 + 0.8 * a * std::cos(2 * M_PI * t / 8),
+                       Eigen::Vector3d(wave(0.08 * a, 5, 0, t), 0, wave(0.06 * a, 6, 1.0, t)),
+                       wave(30 * kDeg * a, 9, 0.4, t));
   }
   if (name == "walk") {
     // Heading +y at 0.15 m/s, a step bob of 2 cm, pitch -22 +- 10 deg (the
@@ -147,24 +152,18 @@ Eigen::Isometry3d trajectoryPose(const std::string& name, double a, double t) {
     // swaying around it (azimuth +-25, elevation +-12, roll +-10 deg), with
     // the hand's tremor on top, in the camera's own frame: +-1.5 deg of yaw,
     // +-1.2 of pitch and +-0.6 of roll at 2.2-5.3 Hz, and +-3 mm.
-    const Eigen::Vector3d c(0, kWallDistance, 0);
-    const double az = wave(25 * kDeg * a, 9, 0, t);
-    const double el = wave(12 * kDeg * a, 7, 0.7, t);
-    const double r = 0.55 + 0.12 * a * std::cos(2 * M_PI * t / 7);
-    const Eigen::Vector3d dir(std::sin(az) * std::cos(el), -std::cos(az) * std::cos(el),
-                              std::sin(el));
-    const Eigen::Vector3d q =
-        c + Eigen::Vector3d(wave(0.03 * a, 5, 0, t), 0, wave(0.02 * a, 6, 1.0, t));
-    const Eigen::Vector3d p = c + r * dir;
-    const Eigen::Matrix3d R = lookRotation(q - p, Eigen::Vector3d::UnitZ()) *
-                              yawPitchRoll(0, 0, wave(10 * kDeg * a, 8, 0.4, t));
+    const Eigen::Isometry3d sway =
+        aroundPoint(Eigen::Vector3d(0, kWallDistance, 0), wave(25 * kDeg * a, 9, 0, t),
+                    wave(12 * kDeg * a, 7, 0.7, t), 0.55 + 0.12 * a * std::cos(2 * M_PI * t / 7),
+                    Eigen::Vector3d(wave(0.03 * a, 5, 0, t), 0, wave(0.02 * a, 6, 1.0, t)),
+                    wave(10 * kDeg * a, 8, 0.4, t));
     const Eigen::Matrix3d tremor =
         yawPitchRoll(wave(1.0 * kDeg * a, 0.27, 0, t) + wave(0.5 * kDeg * a, 0.19, 1.3, t),
                      wave(0.8 * kDeg * a, 0.37, 0.5, t) + wave(0.4 * kDeg * a, 0.23, 2.1, t),
                      wave(0.6 * kDeg * a, 0.45, 1.0, t));
     const Eigen::Vector3d jitter(wave(0.003 * a, 0.33, 0, t), wave(0.003 * a, 0.29, 0.8, t),
                                  wave(0.002 * a, 0.41, 1.7, t));
-    return pose(R, p) * pose(tremor, jitter);
+    return sway * pose(tremor, jitter);
   }
   // "still" (and anything unknown: validate() rejects unknown names).
   return pose(wallView(), Eigen::Vector3d::Zero());

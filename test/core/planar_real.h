@@ -8,6 +8,7 @@
 #include <opencv2/calib3d.hpp>
 #include <opencv2/core.hpp>
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <vector>
@@ -29,6 +30,15 @@ inline double rectifiedAspect(const std::array<cv::Point2d, 4>& c, const CameraM
   const double w = std::hypot(std::hypot(M(0, 0), M(1, 0)), M(2, 0));
   const double h = std::hypot(std::hypot(M(0, 1), M(1, 1)), M(2, 1));
   return w > 0 ? h / w : 0;
+}
+
+// POT's precision at `px`: the fraction of the errors (px) at most `px` (0
+// without errors).
+inline double precisionAt(const std::vector<double>& errors, double px) {
+  if (errors.empty()) return 0;
+  return static_cast<double>(
+             std::count_if(errors.begin(), errors.end(), [px](double e) { return e <= px; })) /
+         errors.size();
 }
 
 }  // namespace test

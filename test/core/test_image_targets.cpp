@@ -10,6 +10,7 @@
 #include "instant_motion_tracking/sim/scene.h"
 
 #include "../pot210.h"
+#include "planar_real.h"
 #include "scene_test_util.h"
 #include "shared_data.h"
 
@@ -250,10 +251,8 @@ PotImageResult runPotImage(const std::string& seq, int frames) {
     if (!pot.scored(f) || res.found < 0) continue;
     errors.push_back(cornerRms(states[0].corners, pot.corners(f)));
   }
-  int good = 0;
-  for (double e : errors) good += e <= 5.0;
   res.scored = static_cast<int>(errors.size());
-  res.precision = errors.empty() ? 0 : double(good) / errors.size();
+  res.precision = test::precisionAt(errors, 5.0);
   res.median_error = median(errors);
   res.worst = errors.empty() ? NAN : *std::max_element(errors.begin(), errors.end());
   std::printf("POT %s image target: found at frame %d (search from %d); P@5 %.2f over %d frames, median %.2f px, "

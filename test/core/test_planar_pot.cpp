@@ -11,6 +11,7 @@
 
 #include "../pot210.h"
 #include "planar_real.h"
+#include "scene_test_util.h"
 #include "shared_data.h"
 
 #include <gtest/gtest.h>
@@ -79,19 +80,14 @@ PotResult runPot(const std::string& seq, int frames, const std::string& model) {
     cpu_seconds += static_cast<double>(cpu2 - cpu0) / CLOCKS_PER_SEC;
     cpu_tracking_seconds += static_cast<double>(cpu2 - cpu1) / CLOCKS_PER_SEC;
     if (f == 1 || !pot.scored(f) || states.empty()) continue;
-    const std::array<cv::Point2d, 4> g = pot.corners(f);
-    double sq = 0;
-    for (int i = 0; i < 4; ++i) sq += std::pow(cv::norm(states[0].corners[i] - g[i]), 2);
-    errors.push_back(std::sqrt(sq / 4));
+    errors.push_back(test::cornerRms(states[0].corners, pot.corners(f)));
     if (std::getenv("IMT_TEST_TRACE"))  // per-frame trace for tuning
       std::printf("%d err %.2f cc %.3f visible %.2f pts %d rms %.2f st %d\n", f, errors.back(),
                   states[0].correlation, states[0].visible, states[0].points, states[0].rms_error,
                   static_cast<int>(states[0].status));
   }
-  int good = 0;
-  for (double e : errors) good += e <= 5.0;
   res.scored = static_cast<int>(errors.size());
-  res.precision = errors.empty() ? 0 : static_cast<double>(good) / errors.size();
+  res.precision = test::precisionAt(errors, 5.0);
   res.fps = frames / seconds;
   std::sort(errors.begin(), errors.end());
   res.median_error = errors.empty() ? 0 : errors[errors.size() / 2];

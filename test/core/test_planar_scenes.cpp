@@ -8,6 +8,7 @@
 #include "instant_motion_tracking/core/planar/planar_target_manager.h"
 #include "instant_motion_tracking/sim/scene.h"
 
+#include "planar_real.h"
 #include "scene_test_util.h"
 
 #include <gtest/gtest.h>
@@ -279,8 +280,7 @@ TEST(PosterHandheld, ShakeBlurCardAndJpeg) {
       },
       80);
   ASSERT_FALSE(errors.empty());
-  const double p5 = std::count_if(errors.begin(), errors.end(), [](double e) { return e <= 5; }) /
-                    static_cast<double>(errors.size());
+  const double p5 = test::precisionAt(errors, 5.0);
   std::printf(
       "handheld page: corners move %.1f px/frame median, %.1f p95, %.1f fastest; up to %.0f%% "
       "covered; "

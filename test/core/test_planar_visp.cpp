@@ -15,6 +15,7 @@
 #include "instant_motion_tracking/core/planar/planar_target_manager.h"
 
 #include "planar_real.h"
+#include "scene_test_util.h"
 #include "shared_data.h"
 
 #include <gtest/gtest.h>
@@ -48,6 +49,13 @@ cv::Point2d mapPoint(const cv::Matx33d& H, const cv::Point2d& p) {
   const cv::Vec3d q = H * cv::Vec3d(p.x, p.y, 1);
   return {q[0] / q[2], q[1] / q[2]};
 }
+
+std::array<cv::Point2d, 4> mapQuad(const cv::Matx33d& H, const std::array<cv::Point2d, 4>& q) {
+  return {mapPoint(H, q[0]), mapPoint(H, q[1]), mapPoint(H, q[2]), mapPoint(H, q[3])};
+}
+
+// A frame without a pose: counted as far off.
+constexpr double kNoPose = 500;
 
 // One white dot on a dark ground, followed from frame to frame: Otsu's
 // threshold in a window around the prediction, the bright component nearest
@@ -145,12 +153,8 @@ struct Errors {
   std::vector<double> px;
   void print(const char* what) {
     std::sort(px.begin(), px.end());
-    const double p5 = std::count_if(px.begin(), px.end(), [](double e) { return e <= 5; }) /
-                      std::max<double>(1, px.size());
     std::printf("%s: %zu frames, P@5 %.2f, P@2 %.2f, median %.2f px, worst %.2f px\n", what,
-                px.size(), p5,
-                std::count_if(px.begin(), px.end(), [](double e) { return e <= 2; }) /
-                    std::max<double>(1, px.size()),
+                px.size(), test::precisionAt(px, 5), test::precisionAt(px, 2),
                 px.empty() ? 0 : px[px.size() / 2], px.empty() ? 0 : px.back());
   }
   double median() const { return px.empty() ? 1e9 : px[px.size() / 2]; }
@@ -226,14 +230,10 @@ Errors trackMire2(int start) {
   k.fx = k.fy = focal;
   trackClip(dir, start, last, corners, k, [&](int f, const std::optional<PlanarTargetState>& s) {
     if (f == start) return;
-    double sq = 1e6;  // no pose: counted as far off
-    if (s && s->hasPose()) {
-      const cv::Matx33d G = squareTo(s->corners);
-      sq = 0;
-      for (int i = 0; i < 4; ++i)
-        sq += std::pow(cv::norm(mapPoint(G, dots_in_target[i]) - reference[f][i]), 2);
-    }
-    errors.px.push_back(std::sqrt(sq / 4));
+    errors.px.push_back(
+        s && s->hasPose()
+            ? test::cornerRms(mapQuad(squareTo(s->corners), dots_in_target), reference[f])
+            : kNoPose);
     if (std::getenv("IMT_TEST_TRACE"))
       std::printf("%d err %.2f cc %.3f st %d\n", f, errors.px.back(), s ? s->correlation : 0.0,
                   s ? static_cast<int>(s->status) : -1);
@@ -353,14 +353,10 @@ TEST(VispPlanar, CubeTabletopPastTheCube) {
         G0_inv = squareTo(s->corners).inv();
         return;
       }
-      double sq = 1e6;  // no pose: counted as far off
-      if (s && s->hasPose()) {
-        const cv::Matx33d carry = squareTo(s->corners) * G0_inv;
-        sq = 0;
-        for (const cv::Point2d& c : quad)
-          sq += std::pow(cv::norm(mapPoint(carry, c) - mapPoint(reference[f], c)), 2);
-      }
-      errors.px.push_back(std::sqrt(sq / 4));
+      errors.px.push_back(s && s->hasPose()
+                              ? test::cornerRms(mapQuad(squareTo(s->corners) * G0_inv, quad),
+                                                mapQuad(reference[f], quad))
+                              : kNoPose);
       if (std::getenv("IMT_TEST_TRACE"))
         std::printf("%d err %.2f cc %.3f st %d visible %.2f\n", f, errors.px.back(),
                     s ? s->correlation : 0.0, s ? static_cast<int>(s->status) : -1,

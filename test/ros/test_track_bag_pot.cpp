@@ -7,6 +7,7 @@
 #include "track_bag_fixture.h"
 
 #include "../core/planar_real.h"
+#include "../core/scene_test_util.h"
 #include "../core/shared_data.h"
 #include "../pot210.h"
 
@@ -80,18 +81,16 @@ TEST_P(TrackBagPot, JpegBagWithoutCameraInfo) {
     const auto& row = rows[f];  // row 0 is the header, row f frame f
     ASSERT_EQ(row.size(), 18u);
     if (!pot.scored(f)) continue;
-    double sq = 1e6;  // no corners: counted as lost
-    if (row[17] == "tracked" || row[17] == "predicted" || row[17] == "out_of_view") {
-      sq = 0;
-      for (int c = 0; c < 4; ++c)
-        sq += std::pow(std::stod(row[2 + 2 * c]) - pot.corners(f)[c].x, 2) +
-              std::pow(std::stod(row[3 + 2 * c]) - pot.corners(f)[c].y, 2);
+    if (row[17] != "tracked" && row[17] != "predicted" && row[17] != "out_of_view") {
+      errors.push_back(1e3);  // no corners: counted as lost
+      continue;
     }
-    errors.push_back(std::sqrt(sq / 4));
+    std::array<cv::Point2d, 4> corners;
+    for (int c = 0; c < 4; ++c) corners[c] = {std::stod(row[2 + 2 * c]), std::stod(row[3 + 2 * c])};
+    errors.push_back(test::cornerRms(corners, pot.corners(f)));
   }
   ASSERT_FALSE(errors.empty());
-  const double p5 = std::count_if(errors.begin(), errors.end(), [](double e) { return e <= 5; }) /
-                    static_cast<double>(errors.size());
+  const double p5 = test::precisionAt(errors, 5.0);
   std::sort(errors.begin(), errors.end());
   std::printf(
       "track_bag POT %s, JPEG bag without camera_info: P@5 %.2f over %zu frames, median %.2f px, "

@@ -149,9 +149,9 @@ Tracked track(const std::string& name,
   if (std::getenv("IMT_TEST_TRACE"))
     for (int k = 0; k < frames; ++k)
       if (const auto& s = t.states[k]; s && region(t.truth[k], kId))
-        std::printf("%d %s %s turn %.1f app %.2f conf %.2f extent %.0f %.0f %.0f %.0f truth %.0f %.0f %.0f %.0f seen %.2f\n",
+        std::printf("%d %s %s turn %.1f app %.2f conf %.2f inliers %zu box %.0fx%.0f extent %.0f %.0f %.0f %.0f truth %.0f %.0f %.0f %.0f seen %.2f\n",
                     k, regionStatusName(s->status), s->reason.c_str(), s->angle * 180 / M_PI, s->appearance_score,
-                    s->confidence, s->extent().x, s->extent().y, s->extent().width, s->extent().height,
+                    s->confidence, s->inliers.size(), s->box.width, s->box.height, s->extent().x, s->extent().y, s->extent().width, s->extent().height,
                     region(t.truth[k], kId)->box.x,
                     region(t.truth[k], kId)->box.y, region(t.truth[k], kId)->box.width,
                     region(t.truth[k], kId)->box.height, seenFraction(t.truth[k]));

@@ -156,10 +156,14 @@ bool AnchorManager::useRotation(const Eigen::Quaterniond& q, RotationSource sour
     // Given (options, tf): the rig's rotation, for every frame.
     rotations_.assign(1, {-std::numeric_limits<double>::infinity(), unit});
   }
+  const bool refined = source == RotationSource::kVideo && rotation_source_ == RotationSource::kVideo;
   rotation_source_ = source;
-  // The video's bias readings were taken with the old rotation (the floor's
-  // normal, the turns' axes): they go.
-  clearVideoBias();
+  // The video's bias readings keep the camera's turns in its own axes and
+  // take the rotation at each fit (VideoGyroBias), so they stay while the
+  // video's own estimate refines itself (it moves by tenths of a degree as
+  // turns come in; dropping them each time left a slow walk's bias never
+  // tracked). A rotation given (options, tf) is another rig: they go.
+  if (!refined) clearVideoBias();
   return true;
 }
 
@@ -200,6 +204,10 @@ ImuInput AnchorManager::addImu(const ImuSample& s, std::string* why) {
   }
   const size_t gaps = imu_.gaps();
   if (!imu_.add(s, why)) return ImuInput::kDropped;
+  // Turns that waited for the gyro are read as soon as it covers them, not
+  // at the next frame: what they teach (the IMU-to-camera rotation, the
+  // bias) then depends on the data alone, not on when frames were tracked.
+  readTurns();
   if (imu_.gaps() == gaps) return ImuInput::kAccepted;
   if (why)
     *why = "IMU gap of " + messageNumber(imu_.lastGapSeconds()) + " s before stamp " + messageNumber(s.stamp) +
@@ -306,7 +314,17 @@ bool AnchorManager::imuTurn(double t0, double t1, Eigen::Matrix3d* turn) const {
   return !imu_.acrossGap(t0, t1) && imu_.turnAtImuStamps(t0 + imu_.timeOffset(), t1 + imu_.timeOffset(), turn);
 }
 
-void AnchorManager::addRotationTurn(const Turn& t, const Eigen::Matrix3d& R_imu0_imu1) {
+void AnchorManager::addRotationTurn(const Turn& frame_turn, const Eigen::Matrix3d& R_imu0_imu1) {
+  // Once the video has found a rotation, its turns are read over the floor
+  // where that explains the background better (floorTurn(), with the IMU's
+  // up from that rotation): a turn-and-zoom fit reads a walk over the floor
+  // as a turn about the camera's x axis, which on a slow walk is as large as
+  // the turns themselves (the rotation 0.46 deg off at the end of a 30-s
+  // slow walk against 0.06 deg over the floor, and 0.34 against 0.06 on the
+  // ordinary walk).
+  Turn t = frame_turn;
+  Eigen::Vector3d over_floor;
+  if (rotation_source_ == RotationSource::kVideo && floorTurn(t, &over_floor)) t.theta_cam = over_floor;
   const double min_angle = video_rotation_.options().min_angle;
   const Eigen::Vector3d theta_imu = rotationVector(R_imu0_imu1);
   if (t.theta_cam.norm() >= min_angle && theta_imu.norm() >= min_angle) {
@@ -327,21 +345,26 @@ void AnchorManager::addRotationTurn(const Turn& t, const Eigen::Matrix3d& R_imu0
   slow_turn_ = SlowTurn();
 }
 
-void AnchorManager::addBiasTurn(const Turn& t, const Eigen::Matrix3d& R_imu0_imu1) {
-  const ImuOptions& o = imu_.options();
-  const Eigen::Quaterniond* q = rotationAt(t.t1);
-  if (!o.video_bias || !o.estimate_gyro_bias || o.use_fused_orientation || !q) return;
-  // The camera's turn: over the floor (the IMU's up as the plane's normal)
-  // or as a turn and a zoom (the turn's own, cameraTurn), whichever explains
-  // the background's motion better; neither within kVideoBiasMaxRmsPx: no
-  // reading.
+bool AnchorManager::floorTurn(const Turn& t, Eigen::Vector3d* theta_cam) const {
+  // Over the floor (the IMU's up as the plane's normal) or as a turn and a
+  // zoom (the turn's own, cameraTurn), whichever explains the background's
+  // motion better; neither within kVideoBiasMaxRmsPx: false.
   Eigen::Matrix3d R_plane;
   double rms_plane = std::numeric_limits<double>::infinity();
   if (!rotationFromPlaneHomography(intrinsics(), t.H, imu_.upInCamera(t.t0), &R_plane, &rms_plane))
     rms_plane = std::numeric_limits<double>::infinity();
-  if (!(std::min(rms_plane, t.rms_px) <= kVideoBiasMaxRmsPx)) return;
+  if (!(std::min(rms_plane, t.rms_px) <= kVideoBiasMaxRmsPx)) return false;
   // R maps rays at t0 to rays at t1: the camera at t1 in the camera at t0 is R^T.
-  const Eigen::Vector3d theta_cam = rms_plane <= t.rms_px ? rotationVector(R_plane.transpose()) : t.theta_cam;
+  *theta_cam = rms_plane <= t.rms_px ? rotationVector(R_plane.transpose()) : t.theta_cam;
+  return true;
+}
+
+void AnchorManager::addBiasTurn(const Turn& t, const Eigen::Matrix3d& R_imu0_imu1) {
+  const ImuOptions& o = imu_.options();
+  const Eigen::Quaterniond* q = rotationAt(t.t1);
+  if (!o.video_bias || !o.estimate_gyro_bias || o.use_fused_orientation || !q) return;
+  Eigen::Vector3d theta_cam;
+  if (!floorTurn(t, &theta_cam)) return;  // neither explains the background: no reading
   const double dt = t.t1 - t.t0;
   // The gyro's turn with the bias in use put back (the window was integrated with it).
   video_bias_.add(t.t1, dt, rotationVector(R_imu0_imu1) + imu_.gyroBias() * dt, theta_cam, imu_.timeOffset());

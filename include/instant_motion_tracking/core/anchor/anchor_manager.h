@@ -28,7 +28,9 @@
 // The IMU-to-camera rotation comes from anchors.rotation_cam_imu, else from
 // tf (setRotationCamImu), else from the video itself: each frame's camera
 // motion, read as a turn, against the gyro's turn between the same stamps
-// (CamImuRotationEstimator; needs turns about two axes). Until one of them
+// (CamImuRotationEstimator; needs turns about two axes; once it has a first
+// estimate, the turns are read over the floor where that explains the
+// background better, as the bias's are below). Until one of them
 // gives it the anchors are `calibrating`: translation only, as no_imu. When
 // the rotation changes (tf arrives, the video's estimate moves by more than
 // kRotationUpdateDeg) the anchors' orientations follow it: each keeps the
@@ -41,7 +43,13 @@
 // (imu.video_bias; VideoGyroBias): each turn the gyro covers is also read off
 // the background's motion as a turn over the floor (rotationFromPlaneHomography,
 // the IMU's up as the normal) or a turn and zoom, whichever explains it
-// within kVideoBiasMaxRmsPx, and compared with the gyro's.
+// within kVideoBiasMaxRmsPx, and compared with the gyro's. The readings
+// outlive the video's rotation refining itself (they take the rotation at
+// each fit), not a rotation given by the options or tf.
+//
+// The turns wait for the gyro to cover them and are read as soon as it does
+// (addImu() and update() alike), so what they teach depends on the data
+// alone, not on when frames were tracked: live and offline agree.
 //
 // Usage (live):
 //   imt::RegionManager regions(o.region_tracking, o.cache_seconds);
@@ -262,6 +270,9 @@ class AnchorManager {
     Eigen::Matrix3d H = Eigen::Matrix3d::Identity();       // the frame's camera motion
   };
   std::deque<Turn> turns_;
+  // The camera's turn over `t` read over the floor or as a turn and a zoom,
+  // whichever explains the background better; false when neither does.
+  bool floorTurn(const Turn& t, Eigen::Vector3d* theta_cam) const;
   static constexpr size_t kMaxWaitingTurns = 300;
   // Consecutive turns each under the rotation estimator's min_angle (a
   // slow pan: under 6 deg/s at 30 frames/s), composed until together they

@@ -583,15 +583,16 @@ TEST(AnchorManager, FloorWalkSlowTurnsFindTheImuRotation) {
     std::printf(" %.2f", e.empty() ? NAN : median(e));
   }
   std::printf(" deg\n");
-  // Measured: found 2.83 s in, 0.46 deg off at the end. Issue 14: within a
+  // Measured: found 2.83 s in, 0.39 deg off at the end. Issue 14: within a
   // few deg; 1 deg as for the ordinary walk.
   ASSERT_GE(f.found_at, 0) << "never found";
   EXPECT_LE(f.found_at, 5.0);
   EXPECT_FALSE(f.tracked_while_calibrating);
   EXPECT_LE(f.rotation_error, 1.0);
-  // Measured: bias from the video, 0.014 deg/s off; orientation 0.40 deg
-  // over the last 2 s (0.65 deg median over the walk: the first seconds
-  // drift with the bias until it is found). Before, each move of the
+  // Measured: bias from the video, 0.013 deg/s off; orientation 0.32 deg
+  // over the last 2 s (0.55 deg median over the walk: the first seconds
+  // drift with the bias until it is found; 0.40 / 0.65 deg with the time
+  // offset not applied). Before, each move of the
   // video's rotation dropped the bias's readings and the bias was never
   // tracked: 7.8 deg median, 14.0 over the last 2 s. Issue 14's goal (1 deg,
   // given for the rotation known) holds with the rotation found too; the
@@ -611,6 +612,7 @@ TEST(AnchorManager, FloorWalkTimeOffsetFromTheVideo) {
     WalkFigures f;
     WalkSetup setup;
     setup.imu_late = late_ms / 1000.0;
+    setup.anchors.estimate_imu_time_offset = false;  // the estimators alone, against the offset 0
     runWalk(&f, OutOfView::kVisual, std::nullopt, std::nullopt, setup);
     fits[late_ms] = f.offset_fit;
     bias_fits[late_ms] = f.video_bias;
@@ -620,7 +622,7 @@ TEST(AnchorManager, FloorWalkTimeOffsetFromTheVideo) {
                 f.gyro_bias.norm() * 180 / M_PI, ImuOrientation::biasSourceName(f.bias_source),
                 f.video_bias ? 1000 * f.video_bias->lateness : NAN, f.video_bias ? 1000 * f.video_bias->lateness_sigma : NAN);
     ASSERT_TRUE(f.offset_fit.found) << late_ms << " ms";
-    EXPECT_EQ(f.time_offset, 0.0) << "applied only when anchors.estimate_imu_time_offset says so";
+    EXPECT_EQ(f.time_offset, 0.0) << "not applied when anchors.estimate_imu_time_offset is off";
   }
   // Measured -16.3, +13.7 and +53.6 ms: each offset to 0.1 ms, plus the same
   // +13.6 ms. That bias is this scene's: the camera moves over the floor 1-2 m
@@ -645,17 +647,31 @@ TEST(AnchorManager, FloorWalkTimeOffsetFromTheVideo) {
   WalkFigures ignored, applied;
   WalkSetup setup;
   setup.imu_late = 0.04;
+  setup.anchors.estimate_imu_time_offset = false;
   runWalk(&ignored, OutOfView::kVisual, std::nullopt, std::nullopt, setup);
-  setup.anchors.estimate_imu_time_offset = true;
+  setup.anchors.estimate_imu_time_offset = true;  // the default
   runWalk(&applied, OutOfView::kVisual, std::nullopt, std::nullopt, setup);
   std::printf("IMU 40 ms late: orientation median %.3f deg with the offset applied (%.1f ms from %s; the bias fit's "
               "lateness then %.1f ms), %.3f deg without\n",
               median(applied.rot), 1000 * applied.time_offset, AnchorManager::offsetSourceName(applied.offset_source),
               applied.video_bias ? 1000 * applied.video_bias->lateness : NAN, median(ignored.rot));
   EXPECT_EQ(applied.offset_source, AnchorManager::OffsetSource::kBiasFit);
-  EXPECT_NEAR(applied.time_offset, 0.040, 0.002);
-  EXPECT_LT(median(applied.rot), median(ignored.rot));
-  // On time, applied: the correlation's +13.7 ms first, then the bias fit's.
+  EXPECT_NEAR(applied.time_offset, 0.040, 0.002);  // issue 14's goal: within 2 ms, rendered
+  // Measured 0.236 deg against 0.640 without.
+  EXPECT_LT(median(applied.rot), 0.5 * median(ignored.rot));
+  // 30 ms early: within the bias fit's reach, so the bias fit alone sets it.
+  WalkFigures early;
+  setup.imu_late = -0.03;
+  runWalk(&early, OutOfView::kVisual, std::nullopt, std::nullopt, setup);
+  std::printf("IMU 30 ms early: orientation median %.3f deg with the offset applied (%.1f ms from %s)\n",
+              median(early.rot), 1000 * early.time_offset, AnchorManager::offsetSourceName(early.offset_source));
+  EXPECT_EQ(early.offset_source, AnchorManager::OffsetSource::kBiasFit);
+  EXPECT_NEAR(early.time_offset, -0.030, 0.002);
+  // On time: the correlation's +13.7 ms is within the bias fit's reach
+  // (kOffsetCorrelationReach), so it is not applied, and the bias fit finds
+  // nothing to change (its lateness 0.2 ms, under a millisecond): no loss
+  // against the offset left alone (measured 0.076 deg either way; 0.081
+  // when the correlation's offset was applied first).
   WalkFigures on_time, on_time_applied;
   setup.imu_late = 0;
   runWalk(&on_time_applied, OutOfView::kVisual, std::nullopt, std::nullopt, setup);
@@ -664,6 +680,41 @@ TEST(AnchorManager, FloorWalkTimeOffsetFromTheVideo) {
   std::printf("IMU on time: orientation median %.3f deg with the offset applied (%.1f ms from %s), %.3f deg without\n",
               median(on_time_applied.rot), 1000 * on_time_applied.time_offset,
               AnchorManager::offsetSourceName(on_time_applied.offset_source), median(on_time.rot));
+  EXPECT_EQ(on_time_applied.offset_source, AnchorManager::OffsetSource::kParameter);  // nothing applied
+  EXPECT_EQ(on_time_applied.time_offset, 0.0);
+  EXPECT_LE(median(on_time_applied.rot), median(on_time.rot) + 0.005);  // the last digits' noise
+}
+
+// Issue 14's calibration-free case in full: no tf, the IMU mounted 128 deg
+// about a tilted axis, and its stamps 40 ms late or 30 ms early. The video
+// finds both: 40 ms by the correlation's offset first (beyond the bias
+// fit's reach), then the bias fit's; 30 ms by the bias fit alone; the bias
+// fit's once its last two fits agree.
+TEST(AnchorManager, FloorWalkLateImuAndHiddenRotation) {
+  const Eigen::Quaterniond hidden(Eigen::AngleAxisd(128 * M_PI / 180, Eigen::Vector3d(1, -2, 0.5).normalized()));
+  for (const int late_ms : {40, -30}) {
+    WalkFigures f, given;
+    WalkSetup setup;
+    setup.imu_late = late_ms / 1000.0;
+    runWalk(&f, OutOfView::kVisual, hidden, std::nullopt, setup);
+    runWalk(&given, OutOfView::kVisual, std::nullopt, std::nullopt, setup);
+    std::printf("IMU %+d ms late, rotation hidden: found %.2f s in, %.3f deg off at the end; offset %.1f ms from %s; "
+                "orientation median %.3f deg (rotation given: %.3f deg, offset %.1f ms)\n",
+                late_ms, f.found_at, f.rotation_error, 1000 * f.time_offset,
+                AnchorManager::offsetSourceName(f.offset_source), median(f.rot), median(given.rot),
+                1000 * given.time_offset);
+    ASSERT_GE(f.found_at, 0) << "never found";
+    EXPECT_LE(f.found_at, 5.0);
+    EXPECT_FALSE(f.tracked_while_calibrating);
+    EXPECT_LE(f.rotation_error, 1.0);                       // issue 14: within 1 deg
+    EXPECT_NEAR(1000 * f.time_offset, late_ms, 2.0);        // and 2 ms
+    // Measured 0.409 deg at +40 ms, 0.475 at -30 ms (0.236 / 0.192 with the
+    // rotation given; the rotation found 0.41 / 0.67 deg off; with a 3-s
+    // wait for the rotation to settle, tried first: 0.617 deg at +40 ms,
+    // the offset left at 59.2 ms). 0.75 deg: half again the worst measured,
+    // under issue 14's 1 deg.
+    EXPECT_LE(median(f.rot), 0.75) << late_ms << " ms";
+  }
 }
 
 // A rotation the video showed is the rig's: after a bag loop (frames and IMU
@@ -754,6 +805,7 @@ TEST(AnchorManager, OutOfViewOnTheImuWhenTheCameraModelFails) {
   WalkSetup setup;
   setup.imu_late = 0.04;
   setup.anchors.imu_time_offset = 0.04;
+  setup.anchors.estimate_imu_time_offset = false;  // known: the video's estimate does not move it
   runWalk(&late, OutOfView::kNoCameraModel, std::nullopt, std::nullopt, setup);
   std::printf("IMU 40 ms late, offset given: first second back %.1f px with the IMU fallback\n",
               median(late.px_after_return));

@@ -150,16 +150,21 @@ class AnchorManager {
   // lateness, VideoGyroBias::Estimate, taken off the offset it was read at).
   // The correlation finds any offset within its reach but carries a scene's
   // bias (the floor's flow: +13.6 ms on the rendered walk); the bias fit is
-  // sharp (under 1 ms there) but linear, good for the last tens of ms. So the
-  // bias fit refines what the correlation found, and the correlation takes
-  // over again only when it moves by more than kOffsetCorrelationReach.
+  // sharp (under 1 ms there) but linear, good for the last tens of ms. So
+  // once the bias fit reads the lateness sharply (imu.video_bias), the
+  // correlation moves the offset only by more than kOffsetCorrelationReach
+  // and the bias fit refines it (where the video found the rotation, once
+  // its last two sharp fits agree). Until then, or without the bias fit,
+  // the correlation's offset is used as it is.
   enum class OffsetSource { kParameter, kCorrelation, kBiasFit };
   OffsetSource timeOffsetSource() const { return offset_source_; }
   static const char* offsetSourceName(OffsetSource s);  // "parameter", "correlation", "bias_fit"
   // The bias fit's lateness is applied when its standard error is under
-  // this (s) and it is over kOffsetMinChange.
+  // this (s), it is over kOffsetMinChange and (rotation from the video) the
+  // offset it implies agrees with the last sharp fit's.
   static constexpr double kOffsetMaxLatenessSigma = 0.002;
   static constexpr double kOffsetMinChange = 0.001;
+  // s: the bias fit's reach (its linear model is 2% short at 40 ms).
   static constexpr double kOffsetCorrelationReach = 0.05;
   // The gyro bias in use (rad/s, IMU frame) and its source; the video's
   // estimate of it while the camera moves (imu.video_bias; none before it
@@ -298,6 +303,9 @@ class AnchorManager {
   // The gyro bias from the video (imu.video_bias).
   void addBiasTurn(const Turn& t, const Eigen::Matrix3d& R_imu0_imu1);
   void fitVideoBias(double t1);
+  // The offset the last sharp bias fit implied (s; NaN: none since its
+  // frames were last cleared).
+  double last_implied_offset_ = std::numeric_limits<double>::quiet_NaN();
   void clearVideoBias();
   VideoGyroBias video_bias_;
   std::optional<VideoGyroBias::Estimate> video_bias_estimate_;

@@ -19,7 +19,7 @@ struct AnchorOptions {
   std::string rotation_cam_imu;
   std::string surface = "horizontal";
   double imu_time_offset = 0.0;
-  bool estimate_imu_time_offset = false;
+  bool estimate_imu_time_offset = true;
   int max_anchors = 256;
 
   template <class V>
@@ -43,10 +43,12 @@ struct AnchorOptions {
       "s; an image stamped t was taken when the IMU's clock read t + this (late driver stamps, a rolling "
       "shutter's middle row); the start value when estimated");
     v("estimate_imu_time_offset", estimate_imu_time_offset,
-      "use the offset the video shows (always estimated and reported, within +-0.1 s: the changes of the "
-      "camera's turn rate aligned with the gyro's over the last 20 s of frames, refitted every 2 s; then "
-      "refined by the gyro bias's fit, imu.video_bias, once it has one); off by default: without the bias "
-      "fit a camera moving over a near plane biases it (+14 ms on the rendered floor walk)");
+      "use the offset the video shows (always estimated and reported). The changes of the camera's turn "
+      "rate aligned with the gyro's (within +-0.1 s, over the last 20 s of frames, refitted every 2 s) "
+      "move it only beyond 50 ms once the gyro bias's fit reads it (imu.video_bias), since a camera moving "
+      "over a near plane biases them (+14 ms on the rendered floor walk); the bias fit refines it (where "
+      "the video found the IMU-to-camera rotation, once its last two fits agree); false: imu_time_offset "
+      "as given");
     v("max_anchors", max_anchors,
       "anchors tracked at most; add_anchor and INIT.yaml are refused beyond (each tracks a region of its own, "
       "not counted in region_tracking.max_regions)");

@@ -18,8 +18,9 @@
 // (correlation 0.95, 0.45 at 0 ms); on the rendered floor walk any IMU delay
 // to 0.1 ms, plus a bias of +13.6 ms: the floor's flow as the camera moves
 // over it reads as a turn that follows the camera's pitch angle, not its
-// rate, as a phase shift would (AnchorManager applies the estimate only when
-// asked, anchors.estimate_imu_time_offset).
+// rate, as a phase shift would (AnchorManager applies it by default,
+// anchors.estimate_imu_time_offset, and only beyond the gyro bias fit's
+// reach once that fit reads the lateness itself).
 //
 // Usage (AnchorManager does this):
 //   imt::TimeOffsetEstimator est;

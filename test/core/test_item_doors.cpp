@@ -107,10 +107,14 @@ TEST_P(ItemDoorsCore, EveryRowGetsTheTablesAnswer) {
     const bool accepted = send(s, row.request, &id, &err);
     EXPECT_EQ(accepted, row.accept) << err;
     if (accepted && row.request.op == ItemOp::kAdd) {
-      if (row.request.id != 0) EXPECT_EQ(id, row.request.id);
+      if (row.request.id != 0) {
+        EXPECT_EQ(id, row.request.id);
+      }
       added.emplace_back(row.request.kind, id);
     }
-    if (!row.accept) EXPECT_NE(err.find(row.phrase), std::string::npos) << "got: " << err;
+    if (!row.accept) {
+      EXPECT_NE(err.find(row.phrase), std::string::npos) << "got: " << err;
+    }
     for (const auto& [kind, item] : added) remove(s, kind, item);
     ASSERT_EQ(s.regionCount() + s.planarTargetCount() + s.anchorCount(), 0u) << "a row left items behind";
   }

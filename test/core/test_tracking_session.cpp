@@ -59,17 +59,22 @@ void addItems(TrackingSession& s, const Rendered& r, const Items& items) {
   const double stamp = r.scene->frameStamp(items.given);
   uint32_t id;
   std::string err;
-  if (items.region) ASSERT_TRUE(s.addRegion(3, stamp, *items.region, &id, &err)) << err;
-  if (items.target)
+  if (items.region) {
+    ASSERT_TRUE(s.addRegion(3, stamp, *items.region, &id, &err)) << err;
+  }
+  if (items.target) {
     ASSERT_TRUE(s.addPlanarTarget(4, stamp, items.target->corners, items.target->width_m, items.target->height_m,
                                   &id, &err))
         << err;
-  if (items.anchor)
+  }
+  if (items.anchor) {
     ASSERT_TRUE(s.addAnchor(5, stamp, items.anchor->pixel, items.anchor->T_cam_anchor.translation().norm(), &id, &err))
         << err;
-  if (!items.picture.empty())
+  }
+  if (!items.picture.empty()) {
     ASSERT_TRUE(s.addImageTarget(6, stamp, items.picture, items.picture_width_m, items.picture_height_m, &id, &err))
         << err;
+  }
 }
 
 // Largest difference (px) between two frames' outputs: region boxes, target
@@ -624,7 +629,9 @@ TEST(TrackingSession, RepeatedAndSlightlyLateStampsAreDroppedNotResets) {
           }
         }
       }
-      if (k == 0) EXPECT_TRUE(s.addRegion(0, t, card->box, &id, &err)) << err;
+      if (k == 0) {
+        EXPECT_TRUE(s.addRegion(0, t, card->box, &id, &err)) << err;
+      }
     }
     *iou = n ? sum / n : 0;
     gaps = s.timeGaps();
@@ -680,7 +687,9 @@ TEST(TrackingSession, RepeatedAndSlightlyLateStampsAreDroppedNotResets) {
             ++n;
           }
     }
-    if (k == 0) EXPECT_TRUE(s.addRegion(0, t, card->box, &id, &err)) << err;
+    if (k == 0) {
+      EXPECT_TRUE(s.addRegion(0, t, card->box, &id, &err)) << err;
+    }
   }
   gap_iou = n ? sum / n : 0;
   std::printf("a 12 s gap at frame 40: mean IoU %.3f (%.3f without), %zu gap(s), %d resets\n", gap_iou, clean,

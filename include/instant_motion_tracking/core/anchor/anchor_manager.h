@@ -290,7 +290,9 @@ class AnchorManager {
   };
   SlowTurn slow_turn_;
   static constexpr int kMaxSlowTurns = 15;
-  void addRotationTurn(const Turn& t, const Eigen::Matrix3d& R_imu0_imu1);
+  // A turn for the IMU-to-camera rotation; `over_floor`, where given, is the
+  // camera's turn read over the floor (floorTurn()).
+  void addRotationTurn(const Turn& t, const Eigen::Matrix3d& R_imu0_imu1, const Eigen::Vector3d* over_floor);
   // The camera-IMU time offset (anchors.estimate_imu_time_offset): the
   // video's turn angles, refitted every kOffsetRefitTurns of them.
   void fitTimeOffset();
@@ -300,8 +302,11 @@ class AnchorManager {
   static constexpr size_t kOffsetRefitTurns = 60;
   std::optional<TimeOffsetFit> time_offset_fit_;
   OffsetSource offset_source_ = OffsetSource::kParameter;
-  // The gyro bias from the video (imu.video_bias).
-  void addBiasTurn(const Turn& t, const Eigen::Matrix3d& R_imu0_imu1);
+  // The gyro bias from the video (imu.video_bias): read at frames stamped
+  // t1 when the options ask for it and a rotation is known there; a reading
+  // is the gyro's turn against the camera's, `theta_cam` (floorTurn()).
+  bool readsVideoBias(double t1) const;
+  void addBiasTurn(const Turn& t, const Eigen::Matrix3d& R_imu0_imu1, const Eigen::Vector3d& theta_cam);
   void fitVideoBias(double t1);
   // The offset the last sharp bias fit implied (s; NaN: none since its
   // frames were last cleared).

@@ -5,10 +5,11 @@
 // Prints a table: frames per second of the whole pipeline and mean IoU
 // against the generator's ground truth. Single-threaded (cv::setNumThreads(1)).
 //
-//   make -C _build benchmarks && taskset -c 0 _build/benchmark/benchmark_region_tracking [--set option=value] [seconds]
+//   make -C _build benchmarks && taskset -c 0 _build/benchmark/benchmark_region_tracking [--set option=value] [--ours-only] [seconds]
 //
 // --set name=value changes a region_tracking option of the first rows (read
-// as config YAML is), to see what a part of the tracker costs.
+// as config YAML is), to see what a part of the tracker costs; --ours-only
+// leaves out the peers (a minute of CSRT).
 #include "instant_motion_tracking/core/motion/motion_analysis.h"
 #include "../test/box_metrics.h"
 #include "instant_motion_tracking/core/tracking_session.h"
@@ -64,11 +65,14 @@ struct IouAccumulator {
 int main(int argc, char** argv) {
   cv::setNumThreads(1);
   double seconds = 10.0;
+  bool peers = true;
   imt::Config config;  // the first rows' options: the defaults, with --set
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     if (a == "--set" && i + 1 < argc) {
       if (!imt::bench::setRegionOption(argv[++i], &config)) return 2;
+    } else if (a == "--ours-only") {
+      peers = false;
     } else {
       seconds = std::atof(argv[i]);
     }
@@ -162,6 +166,7 @@ int main(int argc, char** argv) {
 #ifdef IMT_HAVE_OPENCV_TRACKING
   // Peers on the same 4 regions, each tracker on its own.
   for (const std::string name : {"KCF", "CSRT"}) {
+    if (!peers) break;
     std::vector<cv::Ptr<cv::Tracker>> trackers;
     IouAccumulator acc;
     double total = 0;

@@ -154,6 +154,16 @@ TEST(RegionAppearance, FindsAGrownPatchAnywhereAtTheLostScales) {
   EXPECT_LT(a.matchAnywhere(moved, box, {1.0}).score, 0.75);
   std::printf("grown patch: score %.3f (own size alone %.3f), centre error %.2f px, size ratio %.3f\n", lost.score,
               a.matchAnywhere(moved, box, {1.0}).score, centreError(lost.box, truth), lost.box.width / truth.width);
+  // Around a last place 45 px and 30 px off (three quarters of the box), as
+  // a lost region searches near where it was: found alike, coarse to fine;
+  // the tracked look's narrow margin does not reach it.
+  const cv::Rect2d last(to.x - 30 - 45, to.y - 20 - 30, 60, 40);
+  const AppearanceMatch near = a.matchWide(moved, last, 1.0);
+  ASSERT_TRUE(near.found);
+  EXPECT_LT(centreError(near.box, truth), 2.0);
+  EXPECT_NEAR(near.box.width / truth.width, 1.0, 0.05);
+  EXPECT_GT(near.score, 0.75);
+  EXPECT_LT(a.match(moved, last, 0.35, RegionAppearance::lostScales()).score, 0.75);
 }
 
 TEST(RegionAppearance, UnsupportedRegionIsPulledOntoItsLook) {
@@ -234,7 +244,8 @@ TEST(RegionAppearance, LongLostRegionSearchesLessOftenButComesBack) {
 }
 
 // appearance_budget: up to 8 regions each check their look on every frame;
-// beyond, a firmly carried one every ceil(regions / 8) frames.
+// beyond, each every ceil(regions / 8) frames, on its turn (staggered by id),
+// whether the features carry it firmly or it is in doubt.
 TEST(RegionAppearance, ManyRegionsTakeTurnsAtTheirLook) {
   RegionTrackerOptions o;  // appearance_budget 8
   EXPECT_EQ(RegionTracker::lookInterval(o, 1), 1);
@@ -243,16 +254,29 @@ TEST(RegionAppearance, ManyRegionsTakeTurnsAtTheirLook) {
   EXPECT_EQ(RegionTracker::lookInterval(o, 100), 13);
   o.appearance_budget = 0;  // every region on every frame
   EXPECT_EQ(RegionTracker::lookInterval(o, 100), 1);
-  // A region the motion data says nothing about is in doubt: its look is
-  // checked on every frame however many regions there are.
+  // A region the motion data says nothing about is in doubt: alone, its look
+  // is checked on every frame; among 100 regions, on its turns only (region
+  // 1: frames 2, 15, 28), and each check puts it back where it is (it
+  // coasts in between, 26 px behind by its next turn).
   const cv::Mat img = texture();
   const cv::Rect2d box(100, 80, 60, 40);
-  RegionTracker many(RegionTrackerOptions(), kSize, 100);
-  RegionState s = placed(many, img, box);
-  for (int k = 1; k <= 5; ++k) {
-    s = many.step(s, emptyMotion(0.033 * k), Direction::kForward, 0, shifted(img, 2 * k, k));
-    EXPECT_EQ(s.look_age, 0) << "frame " << k;
-    EXPECT_LT(centreError(s.box, box + cv::Point2d(2 * k, k)), 1.0) << "frame " << k;
+  for (const size_t regions : {size_t{1}, size_t{100}}) {
+    RegionTracker tracker(RegionTrackerOptions(), kSize, regions);
+    RegionState s = placed(tracker, img, box);
+    std::vector<int> checked;
+    for (int k = 1; k <= 28; ++k) {
+      s = tracker.step(s, emptyMotion(0.033 * k), Direction::kForward, 0, shifted(img, 2 * k, k));
+      if (s.look_age != 0) continue;
+      checked.push_back(k);
+      EXPECT_NE(s.status, RegionStatus::kLost) << regions << " regions, frame " << k;
+      // The look's match is to the pixel on this texture (1 px: its rounding).
+      EXPECT_LT(centreError(s.box, box + cv::Point2d(2 * k, k)), 1.0) << regions << " regions, frame " << k;
+    }
+    if (regions == 1) {
+      EXPECT_EQ(checked.size(), 28u);
+    } else {
+      EXPECT_EQ(checked, (std::vector<int>{2, 15, 28}));
+    }
   }
 }
 

@@ -317,11 +317,11 @@ TEST(RegionFailureClass, HiddenFor2sThenBack) {
 }
 
 // With many regions (region_tracking.appearance_budget, 8 by default) a
-// region the features carry firmly has its look checked on its turn only,
-// and a lost one searches on its turns: the cost stays bounded. The target
-// among 99 other regions must be tracked about as well as alone, through the
-// partial cover at init and through the 2 s hiding (found again later: a
-// lost region's searches come every ceil(100 / 8) = 13 frames).
+// region has its look checked on its turn only, in doubt or not, and a lost
+// one searches around its last place on its turns: the cost stays bounded.
+// The target among 99 other regions must be tracked about as well as alone,
+// through the partial cover at init and through the 2 s hiding (found again
+// later: those searches come every ceil(100 / 8) = 13 frames).
 TEST(RegionFailureClass, TargetAmong99OtherRegions) {
   {
     const Tracked t = track("region_static_covered", [](const std::vector<FrameTruth>&) { return 0; },
@@ -330,8 +330,9 @@ TEST(RegionFailureClass, TargetAmong99OtherRegions) {
     int n = 0;
     const double iou = t.meanIou(0, static_cast<int>(t.truth.size()), &n);
     std::printf("region_static_covered among 99 other regions: mean IoU %.3f over %d frames\n", iou, n);
-    // Measured 0.935 (seeds 2-4: 0.949, 0.951, 0.946), as alone. Floor 0.05 under.
-    EXPECT_GE(iou, 0.88);
+    // Measured 0.945 (seeds 2-4: 0.955, 0.959, 0.951), as alone (0.946);
+    // 0.935 while regions in doubt took a look on every frame. Floor 0.05 under.
+    EXPECT_GE(iou, 0.89);
   }
   {
     const Tracked t = track("region_hidden", firstWhole, RegionTrackerOptions(), 99);
@@ -346,14 +347,17 @@ TEST(RegionFailureClass, TargetAmong99OtherRegions) {
     const double again = t.meanIou(back + static_cast<int>(std::lround(0.5 * t.scene->options().fps)), frames, &n);
     std::printf("region_hidden among 99 other regions: mean IoU from 0.5 s after it is back %.3f over %d frames\n",
                 again, n);
-    // Measured 0.753 (seeds 2-4: 0.887, 0.572, 0.864; alone 0.862, 0.887,
-    // 0.863, 0.882): found later than alone on seeds 1 and 3. Before a
+    // Measured 0.776 (seeds 2-4: 0.922, 0.810, 0.758; alone 0.841, 0.853,
+    // 0.870, 0.831): found later than alone on seeds 1 and 4. While a region
+    // in doubt took a look on every frame: 0.753 (0.887, 0.572, 0.864). With
+    // its patience before `lost` read as 20 checks rather than 20 frames, it
+    // waited 13 times as long before searching (0.479). Before a
     // region took new corners only on the frames its look was checked, its
     // stale score let it take corners on the panel coming over it, and it
     // rode the panel (0.561); with the searches around its last place also
     // on turns only after the first 10 frames lost, never found (0.000).
     // Floor 0.05 under.
-    EXPECT_GE(again, 0.70);
+    EXPECT_GE(again, 0.72);
   }
 }
 

@@ -174,20 +174,42 @@ AppearanceMatch RegionAppearance::match(const cv::Mat& gray, const cv::Rect2d& b
 
 AppearanceMatch RegionAppearance::matchAnywhere(const cv::Mat& gray, const cv::Rect2d& box,
                                                const std::vector<double>& scales, double angle) const {
-  AppearanceMatch best;
-  if (!valid() || gray.empty() || !(box.width >= 1 && box.height >= 1)) return best;
-  // Coarse to fine: the whole frame is searched with the template shrunk to
-  // 12 px along its shorter side (a quarter of the cost of a 40 x 24 one,
-  // per scale), and each scale's best place is then matched with the whole
-  // template close around it.
+  return matchCoarse(gray, box, cv::Rect2d(0, 0, gray.cols, gray.rows), 1.0, scales, angle);
+}
+
+AppearanceMatch RegionAppearance::matchWide(const cv::Mat& gray, const cv::Rect2d& box, double margin,
+                                            const std::vector<double>& scales, double angle) const {
+  // Wide enough for the largest scale's box shifted by the margin; along the
+  // image's axes (the coarse template is turned instead).
+  const double largest = scales.empty() ? 1.0 : *std::max_element(scales.begin(), scales.end());
+  const double kx = (0.5 * largest + margin) * box.width, ky = (0.5 * largest + margin) * box.height;
+  const cv::Point2d c(box.x + box.width / 2, box.y + box.height / 2);
+  const double ca = std::abs(std::cos(angle)), sa = std::abs(std::sin(angle));
+  const double ex = ca * kx + sa * ky, ey = sa * kx + ca * ky;
+  return matchCoarse(gray, box, cv::Rect2d(c.x - ex, c.y - ey, 2 * ex, 2 * ey), 0.5, scales, angle);
+}
+
+AppearanceMatch RegionAppearance::matchCoarse(const cv::Mat& gray, const cv::Rect2d& box, const cv::Rect2d& area,
+                                              double min_inside, const std::vector<double>& scales,
+                                              double angle) const {
+  if (!valid() || gray.empty() || !(box.width >= 1 && box.height >= 1)) return AppearanceMatch();
+  // Coarse to fine: `area` is read shrunk so that the box's template is 12
+  // px along its shorter side (a quarter of the cost of a 40 x 24 one) and
+  // searched with the template shrunk as far; the best place is then
+  // matched with the whole template close around it at each of `scales`.
+  // At 640x480, a 60 x 50 box, five scales: 1.1 ms over the whole frame
+  // (each scale searched coarsely on its own took 2.6 ms), 0.41 ms three
+  // boxes wide (the full template at each scale there took 1.5 ms).
   const double coarse = std::min(1.0, 12.0 / std::min(templ_.cols, templ_.rows));
-  cv::Mat small;
-  if (coarse < 1)
-    cv::resize(templ_, small,
-               cv::Size(std::max(4, static_cast<int>(std::lround(templ_.cols * coarse))),
-                        std::max(4, static_cast<int>(std::lround(templ_.rows * coarse)))),
-               0, 0, cv::INTER_AREA);
-  cv::Mat t = coarse < 1 ? small : templ_;
+  const double sx = coarse * templ_.cols / box.width, sy = coarse * templ_.rows / box.height;
+  const cv::Size wsize(static_cast<int>(std::lround(area.width * sx)), static_cast<int>(std::lround(area.height * sy)));
+  cv::Mat window, response;
+  if (!sample(gray, area, wsize, min_inside, &window)) return AppearanceMatch();
+  const double ax = wsize.width / area.width, ay = wsize.height / area.height;  // the window's own scale
+  const cv::Size tsize(std::max(4, static_cast<int>(std::lround(templ_.cols * coarse))),
+                       std::max(4, static_cast<int>(std::lround(templ_.rows * coarse))));
+  cv::Mat t = templ_;
+  if (tsize != templ_.size()) cv::resize(templ_, t, tsize, 0, 0, cv::INTER_AREA);
   if (std::abs(angle) > kCoarseTurn) {
     // The region is turned in the image: so is the coarse template (its
     // corners repeat its border; the refinement below reads it turned). A
@@ -198,23 +220,9 @@ AppearanceMatch RegionAppearance::matchAnywhere(const cv::Mat& gray, const cv::R
                    cv::BORDER_REPLICATE);
     t = turned;
   }
-  cv::Mat window, response;
-  double best_key = -2;  // the score less the scale's penalty
-  for (const double scale : scales) {
-    const double sx = t.cols / (scale * box.width), sy = t.rows / (scale * box.height);
-    const cv::Size wsize(static_cast<int>(std::lround(gray.cols * sx)),
-                         static_cast<int>(std::lround(gray.rows * sy)));
-    if (!sample(gray, cv::Rect2d(0, 0, gray.cols, gray.rows), wsize, 1.0, &window)) continue;
-    AppearanceMatch m = bestMatch(t, window, cv::Point2d(0, 0), wsize.width / static_cast<double>(gray.cols),
-                                  wsize.height / static_cast<double>(gray.rows), &response);
-    // Refined within two coarse pixels either way.
-    if (m.found && (coarse < 1 || !unturned(angle))) m = match(gray, m.box, 2.0 / t.cols, {1.0}, angle);
-    if (m.found && m.score - scalePenalty(scale) > best_key) {
-      best_key = m.score - scalePenalty(scale);
-      best = m;
-    }
-  }
-  return best;
+  const AppearanceMatch m = bestMatch(t, window, area.tl(), ax, ay, &response);
+  // Refined within two coarse pixels either way.
+  return m.found ? match(gray, m.box, 2.0 / t.cols, scales, angle) : m;
 }
 
 void RegionAppearance::blend(const cv::Mat& gray, const cv::Rect2d& box, double rate, double angle) {

@@ -179,8 +179,11 @@ void RegionTracker::checkAppearance(const RegionState& state, RegionState* next,
     // tilting target changes its look while its features hold it).
     next->appearance_misses = state.appearance_misses + 1;
     next->confidence *= 0.5;
+    // Counted in checks: with many regions (appearance_budget) a region's
+    // look is checked every look_interval_ frames, and as many frames pass.
     const int patience = motion_confidence >= 0.5 ? 3 * o.appearance_lost_frames : o.appearance_lost_frames;
-    if (o.appearance_lost_frames > 0 && next->appearance_misses >= patience) {
+    const int checks = (patience + look_interval_ - 1) / look_interval_;
+    if (o.appearance_lost_frames > 0 && next->appearance_misses >= checks) {
       next->status = RegionStatus::kLost;
       next->confidence = 0;
       next->reason = "no longer looks like itself (correlation below " + std::to_string(o.appearance_lost_score) +
@@ -221,13 +224,13 @@ void RegionTracker::reacquire(RegionState* next, const cv::Mat& image) const {
   if (!when.local) return;
   const auto& scales = RegionAppearance::lostScales();
   const double angle = next->angle;  // the last turn it was seen at
-  AppearanceMatch m = next->appearance.match(image, next->box, 1.0, scales, angle);
+  AppearanceMatch m = next->appearance.matchWide(image, next->box, 1.0, scales, angle);
   if (when.whole && (!m.found || m.score < o.reacquire_score)) {
     const bool first = when.k % 2 == 1 && next->first_appearance.valid();
     // The look at placement, at the aspect it was taken at.
     const cv::Rect2d placed_box = region_geometry::withAspect(next->box, next->placed_aspect);
     if (first) {
-      const AppearanceMatch f = next->first_appearance.match(image, placed_box, 1.0, scales, angle);
+      const AppearanceMatch f = next->first_appearance.matchWide(image, placed_box, 1.0, scales, angle);
       if (f.found && f.score > m.score) m = f;
     }
     if (!m.found || m.score < o.reacquire_score) {

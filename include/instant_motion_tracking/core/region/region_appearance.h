@@ -61,11 +61,20 @@ class RegionAppearance {
   // `scales` (anywhere), turned by `angle`: finding a region that was lost.
   AppearanceMatch matchAnywhere(const cv::Mat& gray, const cv::Rect2d& box,
                                 const std::vector<double>& scales = lostScales(), double angle = 0) const;
+  // As match() with a wide margin (a lost region's search around its last
+  // place), coarse to fine as matchAnywhere: the best place at each scale
+  // found with the template shrunk to 12 px, then matched in full close by.
+  AppearanceMatch matchWide(const cv::Mat& gray, const cv::Rect2d& box, double margin,
+                            const std::vector<double>& scales = lostScales(), double angle = 0) const;
   // Turns this small are read as none (the template's corners move by under
   // a fifth of a pixel): the cheaper axis-aligned sampling.
   static bool unturned(double angle) { return std::abs(angle) < 0.005; }
 
  private:
+  // The coarse-to-fine search of matchAnywhere() and matchWide() within
+  // `area` (at least `min_inside` of it in the image).
+  AppearanceMatch matchCoarse(const cv::Mat& gray, const cv::Rect2d& box, const cv::Rect2d& area,
+                              double min_inside, const std::vector<double>& scales, double angle) const;
   cv::Mat templ_;  // CV_32F, fixed size for the region's life
 };
 

@@ -24,12 +24,12 @@
 // around its last place and, every `reacquire_interval` frames, over the
 // whole frame, and becomes `tracked` again on a strong match (its `reason`
 // says so on that frame). The look costs far more than the motion step: with
-// more regions than `appearance_budget`, a region the features carry firmly
-// and that looked like itself at its last check is checked on its turn only
-// (every ceil(regions / budget) frames, staggered by id), taking on that
-// frame the nudges and template updates of the frames it skipped; a lost
-// region's searches around its last place between its whole-frame ones also
-// come on its turns. Without images the tracker runs on motion data alone,
+// more regions than `appearance_budget`, each region's look is checked on
+// its turn only (every ceil(regions / budget) frames, staggered by id),
+// whether the features carry it or it is in doubt, taking on that frame the
+// nudges and template updates of the frames it skipped (its patience before
+// `lost` counts those frames too); a lost region's searches around its last
+// place between its whole-frame ones also come on its turns. Without images the tracker runs on motion data alone,
 // as the paper's.
 //
 // A step works in either time direction: forward (frame k-1 -> k) and

@@ -111,8 +111,10 @@ struct RegionTrackerOptions {
       "frames between a lost region's whole-frame searches (around its last place: every frame for the first 2 intervals, then with them); after 30 intervals, 4 times as many (0 = around its last place on every frame only)");
     v("appearance_budget", appearance_budget,
       "regions whose look is checked per frame, so the cost stays bounded with many regions: with more regions, "
-      "one the features carry firmly is checked on its turn, every ceil(regions / budget) frames; weak, doubtful "
-      "and lost ones on every frame (0 = every region on every frame)");
+      "each is checked on its turn, every ceil(regions / budget) frames, whether the features carry it or it is in "
+      "doubt (appearance_lost_frames then counts the frames between its checks); a lost one's searches around its "
+      "last place also come on its turns, its whole-frame searches as reacquire_interval says (0 = every region "
+      "on every frame)");
     v("max_regions", max_regions, "regions tracked at most; add_region and INIT.yaml are refused beyond");
   }
   std::string validate() const;

@@ -109,6 +109,33 @@ TEST(RegionAppearance, FindsATurnedPatchAtItsTurn) {
   EXPECT_GT(again.score, 0.95);
   std::printf("patch turned 20 deg: score %.3f at its turn, %.3f unturned, centre error %.2f px\n", m.score,
               flat.score, centreError(m.box, box + cv::Point2d(5, -4)));
+  // A lost region's wide search from a place 30 px and 20 px off, along its
+  // turned axes, coarse to fine: found as well (within 2 px: the coarse
+  // search's one px is 5 image px here, the refinement recovers it).
+  const cv::Rect2d truth = box + cv::Point2d(5, -4);
+  const AppearanceMatch wide =
+      a.matchWide(moved, truth + cv::Point2d(-30, 20), 1.0, RegionAppearance::lostScales(), angle);
+  ASSERT_TRUE(wide.found);
+  EXPECT_LT(centreError(wide.box, truth), 2.0);
+  EXPECT_GT(wide.score, 0.9);
+}
+
+// A small box keeps its own pixels (a template under 12 px: no coarse
+// level): the wide search is then a fine one, and finds it to the pixel.
+TEST(RegionAppearance, WideSearchFindsASmallPatch) {
+  const cv::Mat img = texture();
+  const cv::Rect2d box(200, 150, 10, 8);
+  RegionAppearance a;
+  ASSERT_TRUE(RegionAppearance::create(img, box, 40, &a));
+  const AppearanceMatch m = a.matchWide(shifted(img, 7, -5), box, 1.0);
+  ASSERT_TRUE(m.found);
+  EXPECT_LT(centreError(m.box, box + cv::Point2d(7, -5)), 1.0);
+  EXPECT_GT(m.score, 0.9);
+  // Half out of the image: searched where it is in view, never a crash.
+  const AppearanceMatch edge = a.matchWide(img, cv::Rect2d(-5, 100, 10, 8), 1.0);
+  if (edge.found) {
+    EXPECT_TRUE(std::isfinite(edge.box.x) && std::isfinite(edge.box.y) && edge.box.width > 0);
+  }
 }
 
 // The box reported for a turned region: its own box up to a turn of a few
@@ -256,8 +283,8 @@ TEST(RegionAppearance, ManyRegionsTakeTurnsAtTheirLook) {
   EXPECT_EQ(RegionTracker::lookInterval(o, 100), 1);
   // A region the motion data says nothing about is in doubt: alone, its look
   // is checked on every frame; among 100 regions, on its turns only (region
-  // 1: frames 2, 15, 28), and each check puts it back where it is (it
-  // coasts in between, 26 px behind by its next turn).
+  // 1: frames 2, 15, 28), and each check puts it back where it is (in
+  // between it stays where it was put, 26 px behind by its next turn).
   const cv::Mat img = texture();
   const cv::Rect2d box(100, 80, 60, 40);
   for (const size_t regions : {size_t{1}, size_t{100}}) {
@@ -277,6 +304,22 @@ TEST(RegionAppearance, ManyRegionsTakeTurnsAtTheirLook) {
     } else {
       EXPECT_EQ(checked, (std::vector<int>{2, 15, 28}));
     }
+  }
+  // Its patience before `lost` (appearance_lost_frames, 20) counts frames:
+  // looking like nothing it was (another texture), alone it is lost on frame
+  // 20; among 100 at its second poor check (frames 2 and 15: ceil(20 / 13)).
+  cv::Mat other(kSize, CV_8UC1);
+  cv::RNG(99).fill(other, cv::RNG::UNIFORM, 0, 256);
+  cv::GaussianBlur(other, other, cv::Size(0, 0), 1.5);
+  for (const size_t regions : {size_t{1}, size_t{100}}) {
+    RegionTracker tracker(RegionTrackerOptions(), kSize, regions);
+    RegionState s = placed(tracker, img, box);
+    int lost_on = 0;
+    for (int k = 1; k <= 30 && !lost_on; ++k) {
+      s = tracker.step(s, emptyMotion(0.033 * k), Direction::kForward, 0, other);
+      if (s.status == RegionStatus::kLost) lost_on = k;
+    }
+    EXPECT_EQ(lost_on, regions == 1 ? 20 : 15) << regions << " regions: " << s.reason;
   }
 }
 

@@ -300,8 +300,9 @@ TEST(RegionFailureClass, HiddenFor2sThenBack) {
   EXPECT_NEAR((hidden_to - hidden_from) / fps, 2.0, 0.2);
   EXPECT_GT(nb, 30);
   EXPECT_GT(na, 30);
-  // Measured before 0.838, after 0.841 (seeds 2-4: 0.886 / 0.864, 0.872 /
-  // 0.864, 0.882 / 0.831), with regions turning (before: 0.837 / 0.862;
+  // Measured before 0.838, after 0.846 (seeds 2-4: 0.886 / 0.866, 0.872 /
+  // 0.883, 0.882 / 0.843; after 0.841 (0.864, 0.864, 0.831) before the lost
+  // searches ran coarse to fine), with regions turning (before: 0.837 / 0.862;
   // 0.879 / 0.887, 0.859 / 0.863, 0.887 / 0.882): found again a few frames
   // later at the turn it had when lost, carried on by the camera's. The
   // region is lost as it goes under (it no
@@ -347,8 +348,8 @@ TEST(RegionFailureClass, TargetAmong99OtherRegions) {
     const double again = t.meanIou(back + static_cast<int>(std::lround(0.5 * t.scene->options().fps)), frames, &n);
     std::printf("region_hidden among 99 other regions: mean IoU from 0.5 s after it is back %.3f over %d frames\n",
                 again, n);
-    // Measured 0.776 (seeds 2-4: 0.922, 0.810, 0.758; alone 0.841, 0.853,
-    // 0.870, 0.831): found later than alone on seeds 1 and 4. While a region
+    // Measured 0.788 (seeds 2-4: 0.930, 0.871, 0.809; alone 0.846, 0.866,
+    // 0.883, 0.843): found later than alone on seeds 1 and 4. While a region
     // in doubt took a look on every frame: 0.753 (0.887, 0.572, 0.864). With
     // its patience before `lost` read as 20 checks rather than 20 frames, it
     // waited 13 times as long before searching (0.479). Before a
@@ -357,7 +358,7 @@ TEST(RegionFailureClass, TargetAmong99OtherRegions) {
     // rode the panel (0.561); with the searches around its last place also
     // on turns only after the first 10 frames lost, never found (0.000).
     // Floor 0.05 under.
-    EXPECT_GE(again, 0.72);
+    EXPECT_GE(again, 0.73);
   }
 }
 

@@ -52,7 +52,8 @@ void AnchorManager::readTurns() {
     Eigen::Vector3d over_floor;
     const bool floor_ok = (rotation_source_ == RotationSource::kVideo || reads_bias) && floorTurn(t, &over_floor);
     addRotationTurn(t, turn, floor_ok && rotation_source_ == RotationSource::kVideo ? &over_floor : nullptr);
-    if (floor_ok && reads_bias) addBiasTurn(t, turn, over_floor);  // neither explains the background: no reading
+    // (No bias reading where neither the floor nor a turn explains the background.)
+    if (floor_ok && reads_bias) addBiasTurn(t, turn, over_floor);
     if (++bias_turns_since_fit_ >= kVideoBiasRefitTurns) {
       bias_turns_since_fit_ = 0;
       fitVideoBias(t.t1);

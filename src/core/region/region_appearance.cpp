@@ -174,23 +174,22 @@ AppearanceMatch RegionAppearance::match(const cv::Mat& gray, const cv::Rect2d& b
 
 AppearanceMatch RegionAppearance::matchAnywhere(const cv::Mat& gray, const cv::Rect2d& box,
                                                const std::vector<double>& scales, double angle) const {
-  return matchCoarse(gray, box, cv::Rect2d(0, 0, gray.cols, gray.rows), 1.0, scales, angle);
+  return matchCoarse(gray, box, cv::Rect2d(0, 0, gray.cols, gray.rows), 1.0, false, scales, angle);
 }
 
 AppearanceMatch RegionAppearance::matchWide(const cv::Mat& gray, const cv::Rect2d& box, double margin,
                                             const std::vector<double>& scales, double angle) const {
-  // Wide enough for the largest scale's box shifted by the margin; along the
-  // image's axes (the coarse template is turned instead).
-  const double largest = scales.empty() ? 1.0 : *std::max_element(scales.begin(), scales.end());
+  // Wide enough for the largest scale's box (and the coarse search's own, at
+  // scale 1) shifted by the margin, along the region's turned axes.
+  double largest = 1.0;
+  for (const double s : scales) largest = std::max(largest, s);
   const double kx = (0.5 * largest + margin) * box.width, ky = (0.5 * largest + margin) * box.height;
   const cv::Point2d c(box.x + box.width / 2, box.y + box.height / 2);
-  const double ca = std::abs(std::cos(angle)), sa = std::abs(std::sin(angle));
-  const double ex = ca * kx + sa * ky, ey = sa * kx + ca * ky;
-  return matchCoarse(gray, box, cv::Rect2d(c.x - ex, c.y - ey, 2 * ex, 2 * ey), 0.5, scales, angle);
+  return matchCoarse(gray, box, cv::Rect2d(c.x - kx, c.y - ky, 2 * kx, 2 * ky), 0.5, true, scales, angle);
 }
 
 AppearanceMatch RegionAppearance::matchCoarse(const cv::Mat& gray, const cv::Rect2d& box, const cv::Rect2d& area,
-                                              double min_inside, const std::vector<double>& scales,
+                                              double min_inside, bool along_axes, const std::vector<double>& scales,
                                               double angle) const {
   if (!valid() || gray.empty() || !(box.width >= 1 && box.height >= 1)) return AppearanceMatch();
   // Coarse to fine: `area` is read shrunk so that the box's template is 12
@@ -201,28 +200,39 @@ AppearanceMatch RegionAppearance::matchCoarse(const cv::Mat& gray, const cv::Rec
   // (each scale searched coarsely on its own took 2.6 ms), 0.41 ms three
   // boxes wide (the full template at each scale there took 1.5 ms).
   const double coarse = std::min(1.0, 12.0 / std::min(templ_.cols, templ_.rows));
-  const double sx = coarse * templ_.cols / box.width, sy = coarse * templ_.rows / box.height;
-  const cv::Size wsize(static_cast<int>(std::lround(area.width * sx)), static_cast<int>(std::lround(area.height * sy)));
-  cv::Mat window, response;
-  if (!sample(gray, area, wsize, min_inside, &window)) return AppearanceMatch();
-  const double ax = wsize.width / area.width, ay = wsize.height / area.height;  // the window's own scale
   const cv::Size tsize(std::max(4, static_cast<int>(std::lround(templ_.cols * coarse))),
                        std::max(4, static_cast<int>(std::lround(templ_.rows * coarse))));
   cv::Mat t = templ_;
   if (tsize != templ_.size()) cv::resize(templ_, t, tsize, 0, 0, cv::INTER_AREA);
-  if (std::abs(angle) > kCoarseTurn) {
-    // The region is turned in the image: so is the coarse template (its
-    // corners repeat its border; the refinement below reads it turned). A
-    // small turn moves the coarse template's corners by under a pixel.
+  // The window at the coarse template's own scale (its size rounded).
+  const double sx = t.cols / box.width, sy = t.rows / box.height;
+  const cv::Size wsize(static_cast<int>(std::lround(area.width * sx)), static_cast<int>(std::lround(area.height * sy)));
+  // A turned region: read along its axes (`area` is about the box's centre
+  // in them), or, over the whole frame, the coarse template turned instead
+  // (its corners repeat its border; the refinement below reads it turned; a
+  // small turn moves a 12 px template's corners by under a pixel).
+  const bool axes = along_axes && !unturned(angle);
+  cv::Mat window, response;
+  if (!sample(gray, area, wsize, min_inside, &window, axes ? angle : 0)) return AppearanceMatch();
+  const double ax = wsize.width / area.width, ay = wsize.height / area.height;  // the window's own scale
+  if (!axes && std::abs(angle) > kCoarseTurn) {
     cv::Mat turned;
     const cv::Point2f tc(static_cast<float>(t.cols / 2.0 - 0.5), static_cast<float>(t.rows / 2.0 - 0.5));
     cv::warpAffine(t, turned, cv::getRotationMatrix2D(tc, -angle * 180 / M_PI, 1.0), t.size(), cv::INTER_LINEAR,
                    cv::BORDER_REPLICATE);
     t = turned;
   }
-  const AppearanceMatch m = bestMatch(t, window, area.tl(), ax, ay, &response);
-  // Refined within two coarse pixels either way.
-  return m.found ? match(gray, m.box, 2.0 / t.cols, scales, angle) : m;
+  AppearanceMatch m = bestMatch(t, window, area.tl(), ax, ay, &response);
+  if (m.found && axes) {
+    // The match's offset from the area's centre, along the region's axes, turned back into the image.
+    const cv::Point2d c(area.x + area.width / 2, area.y + area.height / 2);
+    const double u = m.box.x + m.box.width / 2 - c.x, v = m.box.y + m.box.height / 2 - c.y;
+    const double ca = std::cos(angle), sa = std::sin(angle);
+    m.box.x = c.x + ca * u - sa * v - m.box.width / 2;
+    m.box.y = c.y + sa * u + ca * v - m.box.height / 2;
+  }
+  // Refined within two coarse pixels either way (along the shorter side too).
+  return m.found ? match(gray, m.box, 2.0 / std::min(t.cols, t.rows), scales, angle) : m;
 }
 
 void RegionAppearance::blend(const cv::Mat& gray, const cv::Rect2d& box, double rate, double angle) {

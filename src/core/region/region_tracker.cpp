@@ -249,15 +249,18 @@ RegionState RegionTracker::step(const RegionState& state, const MotionData& md, 
     // appearance_budget), in doubt or not: a region in doubt checked on every
     // frame beyond the budget made 100 regions cost 20 times one (25 such
     // looks a frame on the `cards` scene).
-    const bool turn = state.look_wait <= 0;
+    // (A wait longer than the interval is left from when more regions
+    // shared the frames.)
+    const bool turn = state.look_wait <= 0 || state.look_wait >= look_interval_;
     next.look_wait = turn ? look_interval_ - 1 : state.look_wait - 1;
     if (turn) {
       checkAppearance(state, &next, weak, image);
       next.look_age = 0;
     } else {
-      // Not its turn: the last check's score stands.
+      // Not its turn: the last check's score stands, for a region its
+      // features carry (one in doubt may have moved off what was checked).
       next.look_age = state.look_age + 1;
-      next.confidence = std::max(next.confidence, lookConfidence(state.appearance_score));
+      if (!weak) next.confidence = std::max(next.confidence, lookConfidence(state.appearance_score));
     }
   }
   // The region's own features go on with it: those still inside its box,

@@ -110,7 +110,11 @@ void RegionTracker::checkAppearance(const RegionState& state, RegionState* next,
     next->appearance_score = -1;
     return;
   }
-  const double margin = motion_weak ? 2 * o.appearance_margin : o.appearance_margin;
+  // A region in doubt is searched for wider, the wider the longer since its
+  // last check (with appearance_budget, its turns come every few frames):
+  // up to twice as wide, as after 4 frames.
+  const double reach = std::min(2.0, std::sqrt(state.look_age + 1.0));
+  const double margin = motion_weak ? 2 * o.appearance_margin * reach : o.appearance_margin;
   // Where the features carry the region they measure its scale, and the
   // look's sizes are not used (below): its own size only, a third the cost.
   static const std::vector<double> own_size = {1.0};
@@ -187,7 +191,9 @@ void RegionTracker::checkAppearance(const RegionState& state, RegionState* next,
       next->status = RegionStatus::kLost;
       next->confidence = 0;
       next->reason = "no longer looks like itself (correlation below " + std::to_string(o.appearance_lost_score) +
-                     " for " + std::to_string(patience) + " frames)";
+                     (look_interval_ == 1 ? " for " + std::to_string(patience) + " frames)"
+                                          : " on " + std::to_string(checks) + " checks, one every " +
+                                                std::to_string(look_interval_) + " frames)");
     }
   }
 }

@@ -59,11 +59,15 @@ class RegionAppearance {
   void blend(const cv::Mat& gray, const cv::Rect2d& box, double rate, double angle = 0);
   // Matches over the whole image at the size of `box` times each of
   // `scales` (anywhere), turned by `angle`: finding a region that was lost.
+  // Coarse to fine: one search with the template shrunk to 12 px at the
+  // box's size, then the whole template at each scale close around its best.
   AppearanceMatch matchAnywhere(const cv::Mat& gray, const cv::Rect2d& box,
                                 const std::vector<double>& scales = lostScales(), double angle = 0) const;
-  // As match() with a wide margin (a lost region's search around its last
-  // place), coarse to fine as matchAnywhere: the best place at each scale
-  // found with the template shrunk to 12 px, then matched in full close by.
+  // A lost region's search around its last place, shifts up to `margin`
+  // times the box's sides either way along its turned axes, coarse to fine
+  // as matchAnywhere(): one search with the template shrunk to 12 px at the
+  // box's size, then the whole template at each of `scales` close around
+  // the best place (`score_at_box` is that place's, not `box`'s).
   AppearanceMatch matchWide(const cv::Mat& gray, const cv::Rect2d& box, double margin,
                             const std::vector<double>& scales = lostScales(), double angle = 0) const;
   // Turns this small are read as none (the template's corners move by under
@@ -72,9 +76,11 @@ class RegionAppearance {
 
  private:
   // The coarse-to-fine search of matchAnywhere() and matchWide() within
-  // `area` (at least `min_inside` of it in the image).
+  // `area` (at least `min_inside` of it in the image), read along the
+  // region's turned axes about the area's centre when `along_axes`.
   AppearanceMatch matchCoarse(const cv::Mat& gray, const cv::Rect2d& box, const cv::Rect2d& area,
-                              double min_inside, const std::vector<double>& scales, double angle) const;
+                              double min_inside, bool along_axes, const std::vector<double>& scales,
+                              double angle) const;
   cv::Mat templ_;  // CV_32F, fixed size for the region's life
 };
 

@@ -28,9 +28,11 @@
 // its turn only (every ceil(regions / budget) frames, staggered by id),
 // whether the features carry it or it is in doubt, taking on that frame the
 // nudges and template updates of the frames it skipped (its patience before
-// `lost` counts those frames too); a lost region's searches around its last
-// place between its whole-frame ones also come on its turns. Without images the tracker runs on motion data alone,
-// as the paper's.
+// `lost` counts those frames too, rounded up to whole checks; one in doubt
+// is searched for wider, up to twice, the longer since its last check); a
+// lost region's searches around its last place between its whole-frame ones
+// also come on its turns. Without images the tracker runs on motion data
+// alone, as the paper's.
 //
 // A step works in either time direction: forward (frame k-1 -> k) and
 // backward (k -> k-1) use the same fit on reversed correspondences, which is
@@ -89,7 +91,7 @@ struct RegionState {
   RegionAppearance appearance;     // its look (invalid without images, or for a flat box)
   RegionAppearance first_appearance;  // its look at placement (checks the template's updates)
   double appearance_score = -1;    // NCC of the look at this frame's box (-1: not checked)
-  int appearance_misses = 0;       // consecutive frames it did not look like itself
+  int appearance_misses = 0;       // consecutive checks it did not look like itself
   int lost_frames = 0;             // frames since it was lost
   int look_wait = 0;               // frames until its look's next turn (appearance_budget)
   int look_age = 0;                // frames since its look was last checked

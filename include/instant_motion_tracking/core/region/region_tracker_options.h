@@ -112,7 +112,7 @@ struct RegionTrackerOptions {
     v("appearance_budget", appearance_budget,
       "regions whose look is checked per frame, so the cost stays bounded with many regions: with more regions, "
       "each is checked on its turn, every ceil(regions / budget) frames, whether the features carry it or it is in "
-      "doubt (appearance_lost_frames then counts the frames between its checks); a lost one's searches around its "
+      "doubt (appearance_lost_frames then rounded up to whole checks); a lost one's searches around its "
       "last place also come on its turns, its whole-frame searches as reacquire_interval says (0 = every region "
       "on every frame)");
     v("max_regions", max_regions, "regions tracked at most; add_region and INIT.yaml are refused beyond");

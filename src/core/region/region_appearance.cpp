@@ -104,6 +104,15 @@ constexpr double kCoarseTurn = 0.1;
 // A scale change must earn its place: the unscaled match wins ties.
 double scalePenalty(double scale) { return scale == 1.0 ? 0.0 : 0.01; }
 
+// A match found in a window read along a region's axes turned by `angle`
+// about `c`: its offset from `c`, along those axes, turned back into the image.
+void turnBack(cv::Rect2d* box, const cv::Point2d& c, double angle) {
+  const double u = box->x + box->width / 2 - c.x, v = box->y + box->height / 2 - c.y;
+  const double ca = std::cos(angle), sa = std::sin(angle);
+  box->x = c.x + ca * u - sa * v - box->width / 2;
+  box->y = c.y + sa * u + ca * v - box->height / 2;
+}
+
 }  // namespace
 
 bool RegionAppearance::create(const cv::Mat& gray, const cv::Rect2d& box, int size, RegionAppearance* out) {
@@ -149,13 +158,7 @@ AppearanceMatch RegionAppearance::match(const cv::Mat& gray, const cv::Rect2d& b
     const double ax = wsize.width / area.width, ay = wsize.height / area.height;  // the window's own scale
     AppearanceMatch m = bestMatch(templ_, window, area.tl(), ax, ay, &response);
     if (!m.found) continue;
-    if (!unturned(angle)) {
-      // The match's offset from the area's centre, along the region's axes, turned back into the image.
-      const double u = m.box.x + m.box.width / 2 - c.x, v = m.box.y + m.box.height / 2 - c.y;
-      const double ca = std::cos(angle), sa = std::sin(angle);
-      m.box.x = c.x + ca * u - sa * v - m.box.width / 2;
-      m.box.y = c.y + sa * u + ca * v - m.box.height / 2;
-    }
+    if (!unturned(angle)) turnBack(&m.box, c, angle);
     if (scale == 1.0) {
       // The response at the box itself (no shift): how well the prediction looks.
       const int px = std::clamp(static_cast<int>(std::lround((box.x - area.x) * ax)), 0, response.cols - 1);
@@ -223,14 +226,7 @@ AppearanceMatch RegionAppearance::matchCoarse(const cv::Mat& gray, const cv::Rec
     t = turned;
   }
   AppearanceMatch m = bestMatch(t, window, area.tl(), ax, ay, &response);
-  if (m.found && axes) {
-    // The match's offset from the area's centre, along the region's axes, turned back into the image.
-    const cv::Point2d c(area.x + area.width / 2, area.y + area.height / 2);
-    const double u = m.box.x + m.box.width / 2 - c.x, v = m.box.y + m.box.height / 2 - c.y;
-    const double ca = std::cos(angle), sa = std::sin(angle);
-    m.box.x = c.x + ca * u - sa * v - m.box.width / 2;
-    m.box.y = c.y + sa * u + ca * v - m.box.height / 2;
-  }
+  if (m.found && axes) turnBack(&m.box, cv::Point2d(area.x + area.width / 2, area.y + area.height / 2), angle);
   // Refined within two coarse pixels either way (along the shorter side too).
   return m.found ? match(gray, m.box, 2.0 / std::min(t.cols, t.rows), scales, angle) : m;
 }

@@ -5,11 +5,12 @@
 // Prints a table: frames per second of the whole pipeline and mean IoU
 // against the generator's ground truth. Single-threaded (cv::setNumThreads(1)).
 //
-//   make -C _build benchmarks && taskset -c 0 _build/benchmark/benchmark_region_tracking [--set option=value] [--ours-only] [seconds]
+//   make -C _build benchmarks && taskset -c 0 _build/benchmark/benchmark_region_tracking [--set option=value] [--ours-only] [--regions N] [seconds]
 //
 // --set name=value changes a region_tracking option of the first rows (read
 // as config YAML is), to see what a part of the tracker costs; --ours-only
-// leaves out the peers (a minute of CSRT).
+// leaves out the peers (a minute of CSRT); --regions N runs our rows with N
+// regions only (after a warm-up run with one), e.g. to profile that count.
 #include "instant_motion_tracking/core/motion/motion_analysis.h"
 #include "../test/box_metrics.h"
 #include "instant_motion_tracking/core/tracking_session.h"
@@ -66,6 +67,7 @@ int main(int argc, char** argv) {
   cv::setNumThreads(1);
   double seconds = 10.0;
   bool peers = true;
+  std::vector<int> counts = {1, 4, 10, 100};
   imt::Config config;  // the first rows' options: the defaults, with --set
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
@@ -73,6 +75,13 @@ int main(int argc, char** argv) {
       if (!imt::bench::setRegionOption(argv[++i], &config)) return 2;
     } else if (a == "--ours-only") {
       peers = false;
+    } else if (a == "--regions" && i + 1 < argc) {
+      const int c = std::atoi(argv[++i]);
+      if (c < 1 || c > 1000) {
+        std::fprintf(stderr, "--regions: 1 to 1000 (got %s)\n", argv[i]);
+        return 2;
+      }
+      counts = {c};
     } else {
       seconds = std::atof(argv[i]);
     }
@@ -120,8 +129,10 @@ int main(int argc, char** argv) {
   // With the regions' appearance check and own corners (the default), and
   // without either (motion data alone, the paper's tracker).
   for (const bool appearance : {true, false}) {
-  bool warmed_up = false;
-  for (int count : {1, 1, 4, 10, 100}) {
+  std::vector<int> runs = {1};  // the first run warms caches and allocators
+  runs.insert(runs.end(), counts.begin(), counts.end());
+  for (size_t run = 0; run < runs.size(); ++run) {
+    const int count = runs[run];
     imt::PipelineOptions options = config.pipeline;
     if (!appearance) {
       options.region_tracking.appearance = false;
@@ -154,10 +165,7 @@ int main(int argc, char** argv) {
         if (truth_id.count(s.id))
           acc.add(s.extent(), truth[k], truth_id[s.id], size, s.status == imt::RegionStatus::kLost);
     }
-    if (count == 1 && !warmed_up) {  // the first run warms caches and allocators
-      warmed_up = true;
-      continue;
-    }
+    if (run == 0) continue;  // the warm-up
     rows.push_back({appearance ? "instant_motion_tracking (pipeline)" : "instant_motion_tracking (pipeline, motion data alone)",
                     count, n / total, acc.mean()});
   }

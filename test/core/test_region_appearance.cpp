@@ -2,7 +2,9 @@
 // with it (region_tracker.h): on a random texture moved by known shifts, with
 // motion data that says nothing about the region (no features, no camera
 // model), so every correction comes from the look alone.
+#include "instant_motion_tracking/core/region/region_manager.h"
 #include "instant_motion_tracking/core/region/region_tracker.h"
+#include "../../src/core/region/region_features.h"
 
 #include <gtest/gtest.h>
 #include <opencv2/imgproc.hpp>
@@ -342,6 +344,68 @@ TEST(RegionOwnFeatures, CarryARegionTheMotionDataHasNoFeaturesIn) {
   // Without the region's own frame the features cannot be followed: motion data alone.
   EXPECT_EQ(tracker.step(s, emptyMotion(0.033), Direction::kForward, 0, next_img).status,
             RegionStatus::kFeatureless);
+}
+
+TEST(RegionOwnFeatures, ManyRegionsShareWholeFramePyramids) {
+  // Whole-frame pyramids pay from a few regions' crops' worth of pixels.
+  const int px = RegionTrackerOptions().region_feature_px;
+  const cv::Size vga(640, 480);
+  EXPECT_FALSE(wholeFramePyramidsPay({cv::Rect2d(0, 0, 60, 50)}, vga, px));
+  EXPECT_TRUE(wholeFramePyramidsPay(std::vector<cv::Rect2d>(20, cv::Rect2d(0, 0, 60, 50)), vga, px));
+  // Large boxes track theirs on downscaled crops: no whole-frame pyramid for them.
+  EXPECT_FALSE(wholeFramePyramidsPay(std::vector<cv::Rect2d>(100, cv::Rect2d(0, 0, 200, 150)), vga, px));
+
+  // A region alone (its own crops) and among 40 others (the frames' shared
+  // pyramids) is tracked alike, forward live and backward from a region
+  // added in the past.
+  const cv::Mat img = texture();
+  const cv::Rect2d box(100, 80, 40, 32);
+  RegionTrackerOptions o;
+  o.appearance = false;  // the features alone
+  o.region_features = 24;
+  constexpr int kFrames = 12;
+  const auto frameAt = [&](int k) { return shifted(img, 2 * k, k); };
+  const auto truthAt = [&](int k) { return box + cv::Point2d(2 * k, k); };
+  std::vector<std::vector<RegionState>> alone(kFrames), among(kFrames);
+  for (const bool many : {false, true}) {
+    RegionManager m(o, 10.0);
+    m.setImageBudget(size_t{64} << 20);  // every frame kept
+    uint32_t id;
+    std::string err;
+    for (int k = 0; k < kFrames; ++k) {
+      m.update(emptyMotion(0.033 * (k + 1)), frameAt(k));
+      if (k == 0) {
+        ASSERT_TRUE(m.add(1, 0, box, &id, &err)) << err;
+        for (int i = 0; many && i < 40; ++i)
+          ASSERT_TRUE(m.add(0, 0, cv::Rect2d(10 + (i % 8) * 36, 10 + (i / 8) * 40, 30, 26), &id, &err)) << err;
+      }
+    }
+    // Given at the last frame: tracked backward to the first on request.
+    ASSERT_TRUE(m.add(1000, 0.033 * kFrames, truthAt(kFrames - 1), &id, &err)) << err;
+    for (int k = 0; k < kFrames; ++k) {
+      std::vector<RegionState> s;
+      ASSERT_TRUE(m.statesAt(0.033 * (k + 1), {1, 1000}, &s, &err)) << err;
+      (many ? among : alone)[k] = s;
+    }
+  }
+  double worst_apart = 0, worst_truth = 0;
+  for (int k = 1; k < kFrames; ++k) {
+    ASSERT_EQ(alone[k].size(), 2u);
+    ASSERT_EQ(among[k].size(), 2u);
+    for (size_t r = 0; r < 2; ++r) {
+      EXPECT_EQ(alone[k][r].status, RegionStatus::kTracked) << "frame " << k;
+      EXPECT_EQ(among[k][r].status, RegionStatus::kTracked) << "frame " << k;
+      worst_apart = std::max(worst_apart, centreError(alone[k][r].box, among[k][r].box));
+      worst_truth = std::max(worst_truth, centreError(among[k][r].box, truthAt(k)));
+    }
+  }
+  std::printf("[ figures  ] a region alone and among 40: %.4f px apart at most; %.3f px from the truth at most\n",
+              worst_apart, worst_truth);
+  // The same LK on the same pixels; only the pyramids' borders differ (a
+  // crop's repeats its edge, the frame's holds the real pixels there).
+  EXPECT_LT(worst_apart, 0.05);
+  // Exact integer shifts, sub-pixel LK on a smooth texture (as above).
+  EXPECT_LT(worst_truth, 0.3);
 }
 
 }  // namespace

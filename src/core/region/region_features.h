@@ -24,11 +24,28 @@ struct OwnFeature {
 // Tracks `points` (full-resolution px in `from`) into `to` (both CV_8UC1, the
 // same size). The guess for each is `H` (from -> to pixels) applied to it,
 // shifted by `shift`. Only the survivors of the forward-backward check are
-// returned.
+// returned. `from_pyramid` and `to_pyramid` (ownFeaturePyramid() of the two
+// frames), when given, are used in place of crops for a box tracked at full
+// resolution.
 std::vector<OwnFeature> trackOwnFeatures(const cv::Mat& from, const cv::Mat& to,
                                          const std::vector<cv::Point2f>& points,
                                          const std::vector<uint32_t>& ids, const cv::Rect2d& box,
-                                         const Eigen::Matrix3d& H, const Eigen::Vector2d& shift, int scale_px);
+                                         const Eigen::Matrix3d& H, const Eigen::Vector2d& shift, int scale_px,
+                                         const std::vector<cv::Mat>* from_pyramid = nullptr,
+                                         const std::vector<cv::Mat>* to_pyramid = nullptr);
+
+// Whether a box's own features are tracked at full resolution (else on a
+// downscaled crop).
+bool ownFeaturesAtFullResolution(const cv::Rect2d& box, int scale_px);
+
+// The whole frame's pyramid for trackOwnFeatures() (its window and levels,
+// with derivatives), to share among many regions.
+std::vector<cv::Mat> ownFeaturePyramid(const cv::Mat& image);
+
+// Whether whole-frame pyramids (one new per frame, the previous frame's
+// reused) cost less than the crops' (two per region and frame) for regions
+// with own features at `boxes` in a `frame`-sized image.
+bool wholeFramePyramidsPay(const std::vector<cv::Rect2d>& boxes, cv::Size frame, int scale_px);
 
 // Up to `count` new corners inside `box` of `image`, at least a few crop px
 // from each other and from `existing`; full-resolution px.

@@ -3,6 +3,7 @@
 #include "instant_motion_tracking/core/item_requests.h"
 
 #include "option_checker.h"
+#include "region_features.h"
 
 #include <algorithm>
 #include <cmath>
@@ -16,6 +17,7 @@ void RegionManager::clear() {
   newest_image_.release();
   cache_.clear();
   regions_.clear();
+  pyramids_.clear();
 }
 
 std::vector<RegionState> RegionManager::update(const MotionData& md, const cv::Mat& image) {
@@ -26,6 +28,12 @@ std::vector<RegionState> RegionManager::update(const MotionData& md, const cv::M
     last_reset_ += "; regions cleared";
   }
   const uint64_t seq = cache_.lastSeq();
+  std::vector<cv::Rect2d> own;  // the boxes of the regions with features of their own
+  for (const auto& [id, r] : regions_) {
+    const RegionState& s = r.states.rbegin()->second;
+    if (!s.own_points.empty()) own.push_back(s.box);
+  }
+  share_pyramids_ = !newest_image_.empty() && wholeFramePyramidsPay(own, image.size(), options_.region_feature_px);
   std::vector<RegionState> out;
   out.reserve(regions_.size());
   for (auto& [id, r] : regions_) {
@@ -33,6 +41,8 @@ std::vector<RegionState> RegionManager::update(const MotionData& md, const cv::M
     // Forget states of frames that left the cache.
     while (!r.states.empty() && r.states.begin()->first < cache_.firstSeq()) r.states.erase(r.states.begin());
   }
+  // The newest frame's pyramid serves the next frame's steps.
+  for (auto it = pyramids_.begin(); it != pyramids_.end();) it = it->first == seq ? std::next(it) : pyramids_.erase(it);
   return out;
 }
 
@@ -93,19 +103,51 @@ cv::Mat RegionManager::imageOf(uint64_t seq) const {
   return cache_.image(seq);
 }
 
+const std::vector<cv::Mat>* RegionManager::pyramidOf(uint64_t seq) {
+  if (!share_pyramids_) return nullptr;
+  auto it = pyramids_.find(seq);
+  if (it == pyramids_.end()) {
+    const cv::Mat image = imageOf(seq);
+    if (image.empty()) return nullptr;
+    // A few kept (a region catching up over many frames walks them in
+    // order): the one farthest from this frame makes room.
+    constexpr size_t kKept = 4;
+    if (pyramids_.size() >= kKept) {
+      const auto far = seq - pyramids_.begin()->first > pyramids_.rbegin()->first - seq
+                           ? pyramids_.begin()
+                           : std::prev(pyramids_.end());
+      pyramids_.erase(far);
+    }
+    it = pyramids_.emplace(seq, ownFeaturePyramid(image)).first;
+  }
+  return &it->second;
+}
+
 const RegionState& RegionManager::stateAt(Region& r, uint64_t seq) {
   RegionTracker tracker(options_, cache_.imageSize(), regions_.size());
   auto& st = r.states;
   MotionData scratch;
+  // The two frames' shared pyramids, for a region with own features the
+  // pyramids serve (those in a large box use a downscaled crop of their own).
+  const auto pyramids = [&](const RegionState& state, uint64_t image, uint64_t state_image) {
+    FramePyramids p;
+    if (!share_pyramids_ || state.own_points.empty() ||
+        !ownFeaturesAtFullResolution(state.box, options_.region_feature_px))
+      return p;
+    p.image = pyramidOf(image);
+    p.state_image = pyramidOf(state_image);
+    return p;
+  };
   // Forward from the newest known state.
   for (uint64_t s = st.rbegin()->first; s < seq; ++s) {
-    st[s + 1] = tracker.step(st[s], frame(s + 1, &scratch), Direction::kForward, 0, imageOf(s + 1), imageOf(s));
+    st[s + 1] = tracker.step(st[s], frame(s + 1, &scratch), Direction::kForward, 0, imageOf(s + 1), imageOf(s),
+                             pyramids(st[s], s + 1, s));
   }
   // Backward from the oldest known state.
   for (uint64_t s = st.begin()->first; s > seq; --s) {
     st[s - 1] = tracker
                     .step(st[s].reversed(), frame(s, &scratch), Direction::kBackward, cache_.at(s - 1).stamp,
-                          imageOf(s - 1), imageOf(s))
+                          imageOf(s - 1), imageOf(s), pyramids(st[s], s - 1, s))
                     .reversed();
   }
   return st.at(seq);

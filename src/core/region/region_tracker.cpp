@@ -234,10 +234,12 @@ bool RegionTracker::usable(const cv::Mat& image) const {
 }
 
 RegionState RegionTracker::step(const RegionState& state, const MotionData& md, Direction dir, double prev_stamp,
-                                const cv::Mat& image, const cv::Mat& state_image) const {
+                                const cv::Mat& image, const cv::Mat& state_image,
+                                const FramePyramids& pyramids) const {
   std::vector<OwnFeature> own;
   const bool with_own = options_.region_features > 0 && usable(image) && usable(state_image);
-  RegionState next = stepMotion(state, md, dir, prev_stamp, with_own ? state_image : cv::Mat(), image, &own);
+  RegionState next =
+      stepMotion(state, md, dir, prev_stamp, with_own ? state_image : cv::Mat(), image, pyramids, &own);
   const bool use_look = options_.appearance && state.appearance.valid() && usable(image);
   if (use_look && state.status == RegionStatus::kLost) {
     reacquire(&next, image);
@@ -295,7 +297,7 @@ RegionState RegionTracker::step(const RegionState& state, const MotionData& md, 
 
 RegionState RegionTracker::stepMotion(const RegionState& state, const MotionData& md, Direction dir,
                                       double prev_stamp, const cv::Mat& from_image, const cv::Mat& to_image,
-                                      std::vector<OwnFeature>* own) const {
+                                      const FramePyramids& pyramids, std::vector<OwnFeature>* own) const {
   const RegionTrackerOptions& o = options_;
   RegionState next = state;
   next.stamp = dir == Direction::kForward ? md.stamp : prev_stamp;
@@ -389,7 +391,7 @@ RegionState RegionTracker::stepMotion(const RegionState& state, const MotionData
   // The region's own features, tracked from its frame into the next.
   if (!from_image.empty() && !to_image.empty() && !state.own_points.empty()) {
     *own = trackOwnFeatures(from_image, to_image, state.own_points, state.own_ids, state.box, H_dir, object_step,
-                            o.region_feature_px);
+                            o.region_feature_px, pyramids.state_image, pyramids.image);
     for (const OwnFeature& f : *own) addVec(f.id, Eigen::Vector2d(f.from.x, f.from.y), Eigen::Vector2d(f.to.x, f.to.y));
   }
   const int in_box = static_cast<int>(std::count_if(vecs.begin(), vecs.end(), [](const Vec& v) { return v.in_box; }));

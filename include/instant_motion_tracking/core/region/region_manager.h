@@ -87,6 +87,9 @@ class RegionManager {
   const MotionData& frame(uint64_t seq, MotionData* scratch) const;
   // The gray image of frame `seq` for the appearance checks (empty: none).
   cv::Mat imageOf(uint64_t seq) const;
+  // Frame `seq`'s whole-frame pyramid for the regions' own features, built
+  // once and shared by every region while share_pyramids_ (else none).
+  const std::vector<cv::Mat>* pyramidOf(uint64_t seq);
 
   RegionTrackerOptions options_;
   MotionCache cache_;
@@ -94,6 +97,10 @@ class RegionManager {
   std::string last_reset_;
   CameraFallback fallback_;
   cv::Mat newest_image_;  // the latest frame's image, also when the cache's budget keeps none
+  // With many regions' own features, one pyramid per frame costs less than
+  // each region's crops' (decided on each frame for the regions then).
+  bool share_pyramids_ = false;
+  std::map<uint64_t, std::vector<cv::Mat>> pyramids_;  // by frame sequence number, a few
 };
 
 }  // namespace imt

@@ -122,6 +122,13 @@ class RegionLossLog {
   std::set<uint32_t> lost_;
 };
 
+// The whole-frame pyramids of a region step's two frames, for the region's
+// own features (RegionTracker::step()).
+struct FramePyramids {
+  const std::vector<cv::Mat>* state_image = nullptr;
+  const std::vector<cv::Mat>* image = nullptr;
+};
+
 class RegionTracker {
  public:
   // `regions`: how many regions share the frames (the look's turns,
@@ -138,9 +145,12 @@ class RegionTracker {
   // before it (`prev_stamp`). `image`: the gray frame the result belongs to
   // (CV_8UC1, the motion data's size), or empty for motion data alone.
   // `state_image`: the gray frame of `state` (with `image`, the region's own
-  // features are tracked between the two).
+  // features are tracked between the two). `pyramids`: the two frames'
+  // whole-frame pyramids for those features, shared by many regions
+  // (RegionManager), or none (each region builds its own crops').
   RegionState step(const RegionState& state, const MotionData& md, Direction dir, double prev_stamp = 0,
-                   const cv::Mat& image = cv::Mat(), const cv::Mat& state_image = cv::Mat()) const;
+                   const cv::Mat& image = cv::Mat(), const cv::Mat& state_image = cv::Mat(),
+                   const FramePyramids& pyramids = FramePyramids()) const;
   // Takes the region's look and its own features from `image`, the frame of
   // its box, whose motion data `md` has features of its own (no-op without
   // an image; no look when appearance is off or the box is flat).
@@ -167,7 +177,8 @@ class RegionTracker {
   // The motion step; with both images, the region's own features are tracked
   // too (`own`: those that were) and join the fit.
   RegionState stepMotion(const RegionState& state, const MotionData& md, Direction dir, double prev_stamp,
-                         const cv::Mat& from_image, const cv::Mat& to_image, std::vector<OwnFeature>* own) const;
+                         const cv::Mat& from_image, const cv::Mat& to_image, const FramePyramids& pyramids,
+                         std::vector<OwnFeature>* own) const;
   // Tops the region's own features up to region_features, counting the
   // `motion_features` the motion analysis has inside its box.
   void addOwnFeatures(RegionState* state, const cv::Mat& image, int motion_features) const;

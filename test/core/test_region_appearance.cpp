@@ -325,6 +325,25 @@ TEST(RegionAppearance, ManyRegionsTakeTurnsAtTheirLook) {
   }
 }
 
+TEST(RegionAppearance, ScoreAtReadsTheBoxAsItStands) {
+  const cv::Mat img = texture();
+  const cv::Rect2d box(100, 80, 60, 40);
+  RegionAppearance a;
+  ASSERT_TRUE(RegionAppearance::create(img, box, 40, &a));
+  const cv::Mat moved = shifted(img, 3, 2);
+  const cv::Rect2d there = box + cv::Point2d(3, 2);
+  // Where the patch is: the template against its own pixels (resampled the
+  // same way) correlates fully.
+  EXPECT_GT(a.scoreAt(moved, there), 0.99);
+  // The full search's score at the box reads it on its window's grid, up to
+  // half a window px off (0.946 here): never closer than the box itself.
+  EXPECT_GE(a.scoreAt(moved, there), a.match(moved, there, 0.35).score_at_box);
+  // Ten px off on a texture whose grain is ~4 px: no longer the patch.
+  EXPECT_LT(a.scoreAt(moved, there + cv::Point2d(10, 0)), 0.5);
+  // Mostly outside the image: no score.
+  EXPECT_EQ(a.scoreAt(moved, cv::Rect2d(-50, 80, 60, 40)), -1);
+}
+
 TEST(RegionOwnFeatures, CarryARegionTheMotionDataHasNoFeaturesIn) {
   const cv::Mat img = texture();
   const cv::Rect2d box(100, 80, 40, 32);  // small: tracked at full resolution

@@ -231,6 +231,14 @@ AppearanceMatch RegionAppearance::matchCoarse(const cv::Mat& gray, const cv::Rec
   return m.found ? match(gray, m.box, 2.0 / std::min(t.cols, t.rows), scales, angle) : m;
 }
 
+double RegionAppearance::scoreAt(const cv::Mat& gray, const cv::Rect2d& box, double angle) const {
+  cv::Mat now, response;
+  if (!valid() || gray.empty() || !sample(gray, box, templ_.size(), 0.5, &now, angle)) return -1;
+  cv::matchTemplate(now, templ_, response, cv::TM_CCOEFF_NORMED);
+  const float r = response.at<float>(0, 0);
+  return std::isfinite(r) ? r : -1;
+}
+
 void RegionAppearance::blend(const cv::Mat& gray, const cv::Rect2d& box, double rate, double angle) {
   cv::Mat now;
   if (!valid() || !(rate > 0) || !sample(gray, box, templ_.size(), 0.75, &now, angle)) return;

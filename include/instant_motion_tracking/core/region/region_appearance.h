@@ -70,6 +70,9 @@ class RegionAppearance {
   // the best place (`score_at_box` is that place's, not `box`'s).
   AppearanceMatch matchWide(const cv::Mat& gray, const cv::Rect2d& box, double margin,
                             const std::vector<double>& scales = lostScales(), double angle = 0) const;
+  // The correlation of the look with `box` turned by `angle` in `gray`, as
+  // it stands (no search); -1 when too little of it is in the image.
+  double scoreAt(const cv::Mat& gray, const cv::Rect2d& box, double angle = 0) const;
   // Turns this small are read as none (the template's corners move by under
   // a fifth of a pixel): the cheaper axis-aligned sampling.
   static bool unturned(double angle) { return std::abs(angle) < 0.005; }

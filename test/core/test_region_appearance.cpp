@@ -369,10 +369,11 @@ TEST(RegionOwnFeatures, ManyRegionsShareWholeFramePyramids) {
   // Whole-frame pyramids pay from a few regions' crops' worth of pixels.
   const int px = RegionTrackerOptions().region_feature_px;
   const cv::Size vga(640, 480);
-  EXPECT_FALSE(wholeFramePyramidsPay({cv::Rect2d(0, 0, 60, 50)}, vga, px));
-  EXPECT_TRUE(wholeFramePyramidsPay(std::vector<cv::Rect2d>(20, cv::Rect2d(0, 0, 60, 50)), vga, px));
+  const double one = ownCropPixels(cv::Rect2d(0, 0, 60, 50), px);
+  EXPECT_FALSE(wholeFramePyramidsPay(one, vga));
+  EXPECT_TRUE(wholeFramePyramidsPay(20 * one, vga));
   // Large boxes track theirs on downscaled crops: no whole-frame pyramid for them.
-  EXPECT_FALSE(wholeFramePyramidsPay(std::vector<cv::Rect2d>(100, cv::Rect2d(0, 0, 200, 150)), vga, px));
+  EXPECT_EQ(ownCropPixels(cv::Rect2d(0, 0, 200, 150), px), 0.0);
 
   // A region alone (its own crops) and among 40 others (the frames' shared
   // pyramids) is tracked alike, forward live and backward from a region

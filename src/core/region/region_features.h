@@ -42,10 +42,14 @@ bool ownFeaturesAtFullResolution(const cv::Rect2d& box, int scale_px);
 // with derivatives), to share among many regions.
 std::vector<cv::Mat> ownFeaturePyramid(const cv::Mat& image);
 
+// The pixels of the crops a region with own features at `box` builds
+// pyramids of per frame (two: the frames it steps between); 0 for a large
+// box (downscaled crops, which a whole-frame pyramid cannot serve).
+double ownCropPixels(const cv::Rect2d& box, int scale_px);
 // Whether whole-frame pyramids (one new per frame, the previous frame's
-// reused) cost less than the crops' (two per region and frame) for regions
-// with own features at `boxes` in a `frame`-sized image.
-bool wholeFramePyramidsPay(const std::vector<cv::Rect2d>& boxes, cv::Size frame, int scale_px);
+// reused) cost less than crops of `crop_pixels` (ownCropPixels() summed over
+// the regions) in a `frame`-sized image.
+bool wholeFramePyramidsPay(double crop_pixels, cv::Size frame);
 
 // Up to `count` new corners inside `box` of `image`, at least a few crop px
 // from each other and from `existing`; full-resolution px.

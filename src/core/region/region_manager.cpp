@@ -7,6 +7,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <optional>
 
 namespace imt {
 
@@ -18,6 +19,7 @@ void RegionManager::clear() {
   cache_.clear();
   regions_.clear();
   pyramids_.clear();
+  given_.clear();
 }
 
 std::vector<RegionState> RegionManager::update(const MotionData& md, const cv::Mat& image) {
@@ -25,15 +27,10 @@ std::vector<RegionState> RegionManager::update(const MotionData& md, const cv::M
   newest_image_ = options_.usesImages() ? image : cv::Mat();
   if (!cache_.push(md, &last_reset_, image)) {
     regions_.clear();
+    given_.clear();
     last_reset_ += "; regions cleared";
   }
   const uint64_t seq = cache_.lastSeq();
-  std::vector<cv::Rect2d> own;  // the boxes of the regions with features of their own
-  for (const auto& [id, r] : regions_) {
-    const RegionState& s = r.states.rbegin()->second;
-    if (!s.own_points.empty()) own.push_back(s.box);
-  }
-  share_pyramids_ = !newest_image_.empty() && wholeFramePyramidsPay(own, image.size(), options_.region_feature_px);
   std::vector<RegionState> out;
   out.reserve(regions_.size());
   for (auto& [id, r] : regions_) {
@@ -43,6 +40,7 @@ std::vector<RegionState> RegionManager::update(const MotionData& md, const cv::M
   }
   // The newest frame's pyramid serves the next frame's steps.
   for (auto it = pyramids_.begin(); it != pyramids_.end();) it = it->first == seq ? std::next(it) : pyramids_.erase(it);
+  given_.erase(given_.begin(), given_.lower_bound(cache_.firstSeq()));
   return out;
 }
 
@@ -103,20 +101,44 @@ cv::Mat RegionManager::imageOf(uint64_t seq) const {
   return cache_.image(seq);
 }
 
+const RegionManager::Given& RegionManager::givenUpTo(uint64_t seq) {
+  auto it = given_.find(seq);
+  if (it == given_.end()) {
+    Given g;
+    for (const auto& [id, r] : regions_) {
+      if (r.given_seq > seq) continue;
+      ++g.regions;
+      g.crop_pixels += ownCropPixels(r.given_box, options_.region_feature_px);
+    }
+    it = given_.emplace(seq, g).first;
+  }
+  return it->second;
+}
+
+size_t RegionManager::sharing(const Region& r, uint64_t seq) {
+  return givenUpTo(seq).regions + (r.given_seq > seq ? 1 : 0);
+}
+
+bool RegionManager::sharesPyramids(const Region& r, uint64_t seq) {
+  double pixels = givenUpTo(seq).crop_pixels;
+  if (r.given_seq > seq) pixels += ownCropPixels(r.given_box, options_.region_feature_px);
+  return wholeFramePyramidsPay(pixels, cache_.imageSize());
+}
+
 const std::vector<cv::Mat>* RegionManager::pyramidOf(uint64_t seq) {
-  if (!share_pyramids_) return nullptr;
   auto it = pyramids_.find(seq);
   if (it == pyramids_.end()) {
     const cv::Mat image = imageOf(seq);
     if (image.empty()) return nullptr;
     // A few kept (a region catching up over many frames walks them in
-    // order): the one farthest from this frame makes room.
+    // order): the one farthest from this frame makes room (never the other
+    // frame of the step, one away: of four kept, an end is two or more away).
     constexpr size_t kKept = 4;
     if (pyramids_.size() >= kKept) {
-      const auto far = seq - pyramids_.begin()->first > pyramids_.rbegin()->first - seq
-                           ? pyramids_.begin()
-                           : std::prev(pyramids_.end());
-      pyramids_.erase(far);
+      const auto distance = [seq](uint64_t other) { return other > seq ? other - seq : seq - other; };
+      pyramids_.erase(distance(pyramids_.begin()->first) > distance(pyramids_.rbegin()->first)
+                          ? pyramids_.begin()
+                          : std::prev(pyramids_.end()));
     }
     it = pyramids_.emplace(seq, ownFeaturePyramid(image)).first;
   }
@@ -124,28 +146,35 @@ const std::vector<cv::Mat>* RegionManager::pyramidOf(uint64_t seq) {
 }
 
 const RegionState& RegionManager::stateAt(Region& r, uint64_t seq) {
-  RegionTracker tracker(options_, cache_.imageSize(), regions_.size());
   auto& st = r.states;
   MotionData scratch;
+  // The tracker for a step into frame `to`: its look's turns come as often
+  // as the regions sharing that frame make them.
+  std::optional<RegionTracker> tracker;
+  const auto trackerFor = [&](uint64_t to) -> const RegionTracker& {
+    const size_t n = sharing(r, to);
+    if (!tracker || tracker->regions() != n) tracker.emplace(options_, cache_.imageSize(), n);
+    return *tracker;
+  };
   // The two frames' shared pyramids, for a region with own features the
   // pyramids serve (those in a large box use a downscaled crop of their own).
-  const auto pyramids = [&](const RegionState& state, uint64_t image, uint64_t state_image) {
+  const auto pyramids = [&](const RegionState& state, uint64_t to, uint64_t from) {
     FramePyramids p;
-    if (!share_pyramids_ || state.own_points.empty() ||
-        !ownFeaturesAtFullResolution(state.box, options_.region_feature_px))
+    if (state.own_points.empty() || !ownFeaturesAtFullResolution(state.box, options_.region_feature_px) ||
+        !sharesPyramids(r, to))
       return p;
-    p.image = pyramidOf(image);
-    p.state_image = pyramidOf(state_image);
+    p.image = pyramidOf(to);
+    p.state_image = pyramidOf(from);
     return p;
   };
   // Forward from the newest known state.
   for (uint64_t s = st.rbegin()->first; s < seq; ++s) {
-    st[s + 1] = tracker.step(st[s], frame(s + 1, &scratch), Direction::kForward, 0, imageOf(s + 1), imageOf(s),
-                             pyramids(st[s], s + 1, s));
+    st[s + 1] = trackerFor(s + 1).step(st[s], frame(s + 1, &scratch), Direction::kForward, 0, imageOf(s + 1),
+                                       imageOf(s), pyramids(st[s], s + 1, s));
   }
   // Backward from the oldest known state.
   for (uint64_t s = st.begin()->first; s > seq; --s) {
-    st[s - 1] = tracker
+    st[s - 1] = trackerFor(s - 1)
                     .step(st[s].reversed(), frame(s, &scratch), Direction::kBackward, cache_.at(s - 1).stamp,
                           imageOf(s - 1), imageOf(s), pyramids(st[s], s - 1, s))
                     .reversed();
@@ -195,10 +224,14 @@ bool RegionManager::add(uint32_t id, double stamp, const cv::Rect2d& box, uint32
   }
   Region& r = regions_[id];
   r.id = id;
+  r.given_seq = seq;
+  r.given_box = box;
+  given_.clear();
   RegionState start = RegionState::start(id, box, cache_.at(seq).stamp);
-  RegionTracker(options_, cache_.imageSize(), regions_.size()).initFromImage(&start, imageOf(seq), cache_.at(seq));
+  RegionTracker(options_, cache_.imageSize()).initFromImage(&start, imageOf(seq), cache_.at(seq));
   r.states[seq] = start;
-  stateAt(r, cache_.lastSeq());  // catch up to the present
+  // Tracked to the present on the next update() or request, with every
+  // region given by then: a step does not depend on the order of the adds.
   *assigned_id = id;
   return true;
 }
@@ -208,6 +241,7 @@ bool RegionManager::remove(uint32_t id, std::string* error) {
     *error = "unknown region id " + std::to_string(id);
     return false;
   }
+  given_.clear();
   return true;
 }
 
@@ -236,9 +270,10 @@ bool RegionManager::statesAt(double stamp, const std::vector<uint32_t>& ids,
   return true;
 }
 
-std::vector<RegionState> RegionManager::latest() const {
+std::vector<RegionState> RegionManager::latest() {
   std::vector<RegionState> out;
-  for (const auto& [id, r] : regions_) out.push_back(r.states.rbegin()->second);
+  if (cache_.empty()) return out;
+  for (auto& [id, r] : regions_) out.push_back(stateAt(r, cache_.lastSeq()));
   return out;
 }
 

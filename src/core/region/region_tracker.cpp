@@ -253,8 +253,10 @@ RegionState RegionTracker::step(const RegionState& state, const MotionData& md, 
     // looks a frame on the `cards` scene).
     // (A wait longer than the interval is left from when more regions
     // shared the frames.)
-    const bool turn = state.look_wait <= 0 || state.look_wait >= look_interval_;
-    next.look_wait = turn ? look_interval_ - 1 : state.look_wait - 1;
+    // (A region's first step: its turns staggered by id.)
+    const int wait = state.look_wait < 0 ? static_cast<int>(state.id % look_interval_) : state.look_wait;
+    const bool turn = wait <= 0 || wait >= look_interval_;
+    next.look_wait = turn ? look_interval_ - 1 : wait - 1;
     if (turn) {
       checkAppearance(state, &next, weak, image);
       next.look_age = 0;

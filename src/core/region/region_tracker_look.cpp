@@ -99,8 +99,9 @@ void RegionTracker::initFromImage(RegionState* state, const cv::Mat& image, cons
   if (options_.appearance &&
       RegionAppearance::create(image, state->box, options_.appearance_size, &state->appearance))
     state->first_appearance = state->appearance;
-  // Its turns among the others' (appearance_budget), staggered by id.
-  state->look_wait = static_cast<int>(state->id % look_interval_);
+  // Its turns among the others' (appearance_budget) are staggered by id on
+  // its first step, among the regions sharing that frame.
+  state->look_wait = -1;
 }
 
 void RegionTracker::checkAppearance(const RegionState& state, RegionState* next, bool motion_weak,

@@ -1,8 +1,8 @@
 // Many regions over a bounded cache of motion data (paper 3.2, "random access").
 //
 // The cache keeps the last `cache_seconds` of motion data. A region can be
-// added at any cached stamp: it is tracked forward to the latest frame at
-// once, and backwards on demand. statesAt() returns the regions' states at any
+// added at any cached stamp: it is tracked forward to the latest frame on the
+// next update() (or when its states are asked for), and backwards on demand. statesAt() returns the regions' states at any
 // cached stamp. Per-region work is proportional to the features inside it;
 // the motion analysis is shared by all regions.
 //
@@ -58,7 +58,7 @@ class RegionManager {
   bool statesAt(double stamp, const std::vector<uint32_t>& ids, std::vector<RegionState>* states,
                 std::string* error);
   // The states at the latest frame.
-  std::vector<RegionState> latest() const;
+  std::vector<RegionState> latest();
 
   void clear();
 
@@ -79,16 +79,37 @@ class RegionManager {
  private:
   struct Region {
     uint32_t id = 0;
+    uint64_t given_seq = 0;  // the frame it was given at
+    cv::Rect2d given_box;
     std::map<uint64_t, RegionState> states;  // by frame sequence number, forward semantics
   };
+  // Steps `r` to frame `seq` from its nearest known state (forward or
+  // backward). What a step does depends on the other regions only through
+  // those given at or before the frame stepped into (the look's turns, the
+  // shared pyramids): the same whatever order the regions were added and
+  // stepped in, so live and offline agree.
   const RegionState& stateAt(Region& r, uint64_t seq);
+  // How many regions share frame `seq` for `r`: r and the others given at
+  // or before it.
+  size_t sharing(const Region& r, uint64_t seq);
+  // Whether a step of `r` into frame `seq` uses whole-frame pyramids for
+  // its own features: the boxes (as given) of the regions sharing the frame
+  // make crops dearer (wholeFramePyramidsPay()).
+  bool sharesPyramids(const Region& r, uint64_t seq);
+  // The regions given at or before a frame: how many, and their crops'
+  // pixels (ownCropPixels()); kept by frame until a region is added or removed.
+  struct Given {
+    size_t regions = 0;
+    double crop_pixels = 0;
+  };
+  const Given& givenUpTo(uint64_t seq);
   // The cached frame `seq`, its camera motion from the fallback when its own
   // model is invalid (`scratch` holds the patched copy).
   const MotionData& frame(uint64_t seq, MotionData* scratch) const;
   // The gray image of frame `seq` for the appearance checks (empty: none).
   cv::Mat imageOf(uint64_t seq) const;
   // Frame `seq`'s whole-frame pyramid for the regions' own features, built
-  // once and shared by every region while share_pyramids_ (else none).
+  // once and shared by every region stepping into or out of it.
   const std::vector<cv::Mat>* pyramidOf(uint64_t seq);
 
   RegionTrackerOptions options_;
@@ -97,10 +118,8 @@ class RegionManager {
   std::string last_reset_;
   CameraFallback fallback_;
   cv::Mat newest_image_;  // the latest frame's image, also when the cache's budget keeps none
-  // With many regions' own features, one pyramid per frame costs less than
-  // each region's crops' (decided on each frame for the regions then).
-  bool share_pyramids_ = false;
   std::map<uint64_t, std::vector<cv::Mat>> pyramids_;  // by frame sequence number, a few
+  std::map<uint64_t, Given> given_;                    // givenUpTo() by frame sequence number
 };
 
 }  // namespace imt

@@ -93,7 +93,7 @@ struct RegionState {
   double appearance_score = -1;    // NCC of the look at this frame's box (-1: not checked)
   int appearance_misses = 0;       // consecutive checks it did not look like itself
   int lost_frames = 0;             // frames since it was lost
-  int look_wait = 0;               // frames until its look's next turn (appearance_budget)
+  int look_wait = 0;               // frames until its look's next turn (appearance_budget); -1: not yet given its turns
   int look_age = 0;                // frames since its look was last checked
   std::vector<cv::Point2f> own_points;  // its own features at this frame (px), see region_features.h
   std::vector<uint32_t> own_ids;        // their ids (from kOwnFeatureIdBase)
@@ -134,7 +134,7 @@ class RegionTracker {
   // `regions`: how many regions share the frames (the look's turns,
   // appearance_budget).
   RegionTracker(const RegionTrackerOptions& options, cv::Size image_size, size_t regions = 1)
-      : options_(options), image_size_(image_size), look_interval_(lookInterval(options, regions)) {}
+      : options_(options), image_size_(image_size), regions_(regions), look_interval_(lookInterval(options, regions)) {}
   // Frames between the turns of a firmly carried region's look check when
   // `regions` share the frames: ceil(regions / appearance_budget), at least 1.
   static int lookInterval(const RegionTrackerOptions& options, size_t regions);
@@ -163,6 +163,7 @@ class RegionTracker {
 
   const RegionTrackerOptions& options() const { return options_; }
   cv::Size imageSize() const { return image_size_; }
+  size_t regions() const { return regions_; }
 
  private:
   bool usable(const cv::Mat& image) const;
@@ -196,7 +197,8 @@ class RegionTracker {
 
   RegionTrackerOptions options_;
   cv::Size image_size_;
-  int look_interval_ = 1;  // lookInterval() for the regions it serves
+  size_t regions_ = 1;     // the regions sharing the frames
+  int look_interval_ = 1;  // lookInterval() for them
 };
 
 }  // namespace imt

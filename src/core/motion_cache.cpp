@@ -24,6 +24,7 @@ void MotionCache::clear() {
 }
 
 cv::Mat MotionCache::image(uint64_t seq) const {
+  if (frames_.empty() || seq < first_seq_ || seq > lastSeq()) return cv::Mat();  // not cached
   const cv::Mat& kept = images_[seq - first_seq_];
   if (!kept.empty() || !image_source_) return kept;
   cv::Mat im = image_source_(frames_[seq - first_seq_].stamp);

@@ -18,12 +18,6 @@
 namespace imt {
 namespace {
 
-double median(std::vector<double> v) {
-  if (v.empty()) return NAN;
-  std::sort(v.begin(), v.end());
-  return v[v.size() / 2];
-}
-
 double angleDeg(const Eigen::Matrix3d& a, const Eigen::Matrix3d& b) {
   return Eigen::AngleAxisd(a.transpose() * b).angle() * 180 / M_PI;
 }
@@ -73,7 +67,7 @@ TEST(Anchor, PatchSizeFactorIsTheProjectedSizeTimesRange) {
   const double side = 1e-3;
   for (const cv::Point2d px : {cv::Point2d(320, 240), cv::Point2d(600, 60), cv::Point2d(30, 400)}) {
     for (const double range : {1.0, 4.0}) {
-      for (const Eigen::Vector3d n : {Eigen::Vector3d(0, 0, -1), Eigen::Vector3d(0, -1, -0.3),
+      for (const Eigen::Vector3d& n : {Eigen::Vector3d(0, 0, -1), Eigen::Vector3d(0, -1, -0.3),
                                       Eigen::Vector3d(0.5, -1, -0.2)}) {
         const Eigen::Vector3d d = Eigen::Vector3d((px.x - K.cx) / K.fx, (px.y - K.cy) / K.fy, 1).normalized();
         const Eigen::Vector3d c = range * d, nn = n.normalized();

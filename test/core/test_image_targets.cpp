@@ -113,8 +113,9 @@ RenderedRun runRendered(const SceneGenerator& scene, int start, const cv::Mat& p
     std::vector<PlanarTargetState> states;
     if (i == start) {
       EXPECT_TRUE(targets.addImage(0, 0, picture, t.width_m, t.height_m, scene.intrinsics(), &id, &err)) << err;
-      if (n == 2)
+      if (n == 2) {
         EXPECT_TRUE(targets.addImage(0, 0, absent, t.width_m, t.height_m, scene.intrinsics(), &other, &err)) << err;
+      }
       EXPECT_TRUE(targets.statesAt(0, {}, &states, &err)) << err;
     } else {
       states = targets.update();

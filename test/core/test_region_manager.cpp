@@ -93,7 +93,9 @@ TEST(MotionCache, ImagesStayWithinTheirBudgetOldestDroppedFirst) {
   for (uint64_t seq = cache.firstSeq(); seq <= cache.lastSeq(); ++seq) {
     const int k = static_cast<int>(seq - cache.firstSeq());
     ASSERT_EQ(cache.image(seq).empty(), k < 7) << "frame " << k;
-    if (k >= 7) EXPECT_EQ(cache.image(seq).at<uchar>(0, 0), k);  // each frame keeps its own image
+    if (k >= 7) {
+      EXPECT_EQ(cache.image(seq).at<uchar>(0, 0), k);  // each frame keeps its own image
+    }
   }
   // A colour image or one larger than the budget is not kept; frames still are.
   ASSERT_TRUE(cache.push(md[10], &err, cv::Mat(md[10].height, md[10].width, CV_8UC3))) << err;

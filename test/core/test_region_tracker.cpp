@@ -157,7 +157,9 @@ TEST(RegionTracker, DroppedFramesKeepTheTrackAndThePerFrameVelocity) {
     // while the zoom makes the true one grow.
     const cv::Rect2d a = w.box(0, frames[i]), b = w.box(0, frames[i] - 1);
     const double truth_vx = (a.x + a.width / 2) - (b.x + b.width / 2);
-    if (i > 5) EXPECT_NEAR(tr.states[i].velocity.x(), truth_vx, 0.5) << "frame " << frames[i];
+    if (i > 5) {
+      EXPECT_NEAR(tr.states[i].velocity.x(), truth_vx, 0.5) << "frame " << frames[i];
+    }
   }
   // Same bar as without gaps (measured ~0.97).
   EXPECT_GT(sum / frames.size(), 0.9);

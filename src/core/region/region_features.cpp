@@ -21,11 +21,16 @@ double cropScale(const cv::Rect2d& box, int scale_px) {
   return side > scale_px ? scale_px / side : 1.0;
 }
 
+// The integer pixels of `area` in `image` (clipped).
+cv::Rect pixelsOf(const cv::Mat& image, const cv::Rect2d& area) {
+  return cv::Rect(cv::Point(static_cast<int>(std::floor(area.x)), static_cast<int>(std::floor(area.y))),
+                  cv::Point(static_cast<int>(std::ceil(area.br().x)), static_cast<int>(std::ceil(area.br().y)))) &
+         cv::Rect(0, 0, image.cols, image.rows);
+}
+
 // `area` of `image` (clipped) resampled by `s`; `origin` its top-left in the image.
 bool crop(const cv::Mat& image, const cv::Rect2d& area, double s, cv::Mat* out, cv::Point2d* origin) {
-  const cv::Rect r = cv::Rect(cv::Point(static_cast<int>(std::floor(area.x)), static_cast<int>(std::floor(area.y))),
-                              cv::Point(static_cast<int>(std::ceil(area.br().x)), static_cast<int>(std::ceil(area.br().y)))) &
-                     cv::Rect(0, 0, image.cols, image.rows);
+  const cv::Rect r = pixelsOf(image, area);
   if (r.width < 8 || r.height < 8) return false;
   *origin = cv::Point2d(r.x, r.y);
   if (s >= 1.0) {
@@ -68,28 +73,32 @@ std::vector<OwnFeature> trackOwnFeatures(const cv::Mat& from, const cv::Mat& to,
     area |= cv::Rect2d(guess[i].x, guess[i].y, 0, 0);
     area |= cv::Rect2d(points[i].x, points[i].y, 0, 0);
   }
+  const double pad = (kWindow << kLevels) / s * 0.5;
+  area = cv::Rect2d(area.x - pad, area.y - pad, area.width + 2 * pad, area.height + 2 * pad);
   // The whole frames' pyramids, shared by many regions, or each crop's
-  // (with its derivatives), built once for both ways.
+  // (with its derivatives), built once for both ways. Either way a point
+  // must end inside the crop: the same points survive both.
   std::vector<cv::Mat> pa, pb;
   cv::Point2d oa, ob;  // the crop's top-left in the image
-  cv::Size size;       // the crop's
+  cv::Rect2f inside;   // where a tracked point may end, in the crop (or the frame)
   const cv::Size win(kWindow, kWindow);
   int levels;
   if (s >= 1.0 && from_pyramid && to_pyramid && !from_pyramid->empty() && !to_pyramid->empty() &&
       (*from_pyramid)[0].size() == from.size() && (*to_pyramid)[0].size() == to.size()) {
+    const cv::Rect r = pixelsOf(to, area);
+    if (r.width < 8 || r.height < 8) return out;
     pa = *from_pyramid;
     pb = *to_pyramid;
     levels = static_cast<int>(std::min(pa.size(), pb.size())) / 2 - 1;
-    size = to.size();
+    inside = cv::Rect2f(static_cast<float>(r.x), static_cast<float>(r.y), static_cast<float>(r.width - 1),
+                        static_cast<float>(r.height - 1));
   } else {
-    const double pad = (kWindow << kLevels) / s * 0.5;
-    area = cv::Rect2d(area.x - pad, area.y - pad, area.width + 2 * pad, area.height + 2 * pad);
     cv::Mat a, b;
     if (!crop(from, area, s, &a, &oa) || !crop(to, area, s, &b, &ob)) return out;
     if (a.size() != b.size() || oa != ob) return out;
     levels = std::min(cv::buildOpticalFlowPyramid(a, pa, win, kLevels, true),
                       cv::buildOpticalFlowPyramid(b, pb, win, kLevels, true));
-    size = b.size();
+    inside = cv::Rect2f(0, 0, static_cast<float>(b.cols - 1), static_cast<float>(b.rows - 1));
   }
   std::vector<cv::Point2f> p0(points.size()), p1(points.size()), back;
   for (size_t i = 0; i < points.size(); ++i) {
@@ -102,7 +111,6 @@ std::vector<OwnFeature> trackOwnFeatures(const cv::Mat& from, const cv::Mat& to,
   cv::calcOpticalFlowPyrLK(pa, pb, p0, p1, st, err, win, levels, term, cv::OPTFLOW_USE_INITIAL_FLOW);
   back = p0;
   cv::calcOpticalFlowPyrLK(pb, pa, p1, back, st_back, err, win, levels, term, cv::OPTFLOW_USE_INITIAL_FLOW);
-  const cv::Rect2f inside(0, 0, static_cast<float>(size.width - 1), static_cast<float>(size.height - 1));
   for (size_t i = 0; i < points.size(); ++i) {
     if (!st[i] || !st_back[i] || !inside.contains(p1[i])) continue;
     const cv::Point2f d = back[i] - p0[i];

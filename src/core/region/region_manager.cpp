@@ -24,6 +24,9 @@ void RegionManager::clear() {
 
 std::vector<RegionState> RegionManager::update(const MotionData& md, const cv::Mat& image) {
   last_reset_.clear();
+  // Regions added since the last frame are tracked to it first: the new
+  // frame may push the one they were given at out of the cache.
+  if (!cache_.empty()) stepTogether(all(), cache_.lastSeq());
   newest_image_ = options_.usesImages() ? image : cv::Mat();
   if (!cache_.push(md, &last_reset_, image)) {
     regions_.clear();
@@ -31,6 +34,7 @@ std::vector<RegionState> RegionManager::update(const MotionData& md, const cv::M
     last_reset_ += "; regions cleared";
   }
   const uint64_t seq = cache_.lastSeq();
+  stepTogether(all(), seq);
   std::vector<RegionState> out;
   out.reserve(regions_.size());
   for (auto& [id, r] : regions_) {
@@ -101,6 +105,38 @@ cv::Mat RegionManager::imageOf(uint64_t seq) const {
   return cache_.image(seq);
 }
 
+std::vector<RegionManager::Region*> RegionManager::all() {
+  std::vector<Region*> out;
+  out.reserve(regions_.size());
+  for (auto& [id, r] : regions_) out.push_back(&r);
+  return out;
+}
+
+void RegionManager::stepTogether(const std::vector<Region*>& regions, uint64_t seq) {
+  // Frame by frame, every region whose newest (oldest) state is that frame:
+  // a frame's shared pyramid is built once for all of them.
+  uint64_t lo = seq, hi = seq;
+  for (const Region* r : regions) {
+    lo = std::min(lo, r->states.rbegin()->first);
+    hi = std::max(hi, r->states.begin()->first);
+  }
+  for (uint64_t s = lo; s < seq; ++s)
+    for (Region* r : regions)
+      if (r->states.rbegin()->first == s) stateAt(*r, s + 1);
+  for (uint64_t s = hi; s > seq; --s)
+    for (Region* r : regions)
+      if (r->states.begin()->first == s) stateAt(*r, s - 1);
+}
+
+void RegionManager::countGiven(const Region& r, int sign) {
+  // The memo's frames from the region's on: one more (or fewer) given by then.
+  const double pixels = ownCropPixels(r.given_box, options_.region_feature_px);
+  for (auto it = given_.lower_bound(r.given_seq); it != given_.end(); ++it) {
+    it->second.regions = sign > 0 ? it->second.regions + 1 : it->second.regions - 1;
+    it->second.crop_pixels += sign * pixels;
+  }
+}
+
 const RegionManager::Given& RegionManager::givenUpTo(uint64_t seq) {
   auto it = given_.find(seq);
   if (it == given_.end()) {
@@ -141,6 +177,7 @@ const std::vector<cv::Mat>* RegionManager::pyramidOf(uint64_t seq) {
                           : std::prev(pyramids_.end()));
     }
     it = pyramids_.emplace(seq, ownFeaturePyramid(image)).first;
+    ++pyramids_built_;
   }
   return &it->second;
 }
@@ -226,7 +263,7 @@ bool RegionManager::add(uint32_t id, double stamp, const cv::Rect2d& box, uint32
   r.id = id;
   r.given_seq = seq;
   r.given_box = box;
-  given_.clear();
+  countGiven(r, +1);
   RegionState start = RegionState::start(id, box, cache_.at(seq).stamp);
   RegionTracker(options_, cache_.imageSize()).initFromImage(&start, imageOf(seq), cache_.at(seq));
   r.states[seq] = start;
@@ -237,11 +274,13 @@ bool RegionManager::add(uint32_t id, double stamp, const cv::Rect2d& box, uint32
 }
 
 bool RegionManager::remove(uint32_t id, std::string* error) {
-  if (!regions_.erase(id)) {
+  const auto it = regions_.find(id);
+  if (it == regions_.end()) {
     *error = "unknown region id " + std::to_string(id);
     return false;
   }
-  given_.clear();
+  countGiven(it->second, -1);
+  regions_.erase(it);
   return true;
 }
 
@@ -262,17 +301,21 @@ bool RegionManager::statesAt(double stamp, const std::vector<uint32_t>& ids,
   uint64_t seq;
   if (!cache_.find(stamp, &seq, error)) return false;
   states->clear();
+  std::vector<Region*> which;
   if (ids.empty()) {
-    for (auto& [id, r] : regions_) states->push_back(stateAt(r, seq));
+    which = all();
   } else {
-    for (uint32_t id : ids) states->push_back(stateAt(regions_.at(id), seq));
+    for (uint32_t id : ids) which.push_back(&regions_.at(id));
   }
+  stepTogether(which, seq);
+  for (Region* r : which) states->push_back(stateAt(*r, seq));
   return true;
 }
 
 std::vector<RegionState> RegionManager::latest() {
   std::vector<RegionState> out;
   if (cache_.empty()) return out;
+  stepTogether(all(), cache_.lastSeq());
   for (auto& [id, r] : regions_) out.push_back(stateAt(r, cache_.lastSeq()));
   return out;
 }

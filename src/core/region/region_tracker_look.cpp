@@ -129,7 +129,10 @@ void RegionTracker::checkAppearance(const RegionState& state, RegionState* next,
   const bool coarse = motion_weak && look_interval_ > 1;
   AppearanceMatch m = coarse ? state.appearance.matchWide(image, next->box, margin, scales, next->angle)
                              : state.appearance.match(image, next->box, margin, scales, next->angle);
-  if (coarse && m.found) m.score_at_box = state.appearance.scoreAt(image, next->box, next->angle);
+  if (coarse && m.found) {
+    m.score_at_box = state.appearance.scoreAt(image, next->box, next->angle);
+    m.found = m.score_at_box > -0.5;  // -1: the box mostly out of the image, as a window would be
+  }
   if (!m.found) {
     next->appearance_score = -1;
     return;

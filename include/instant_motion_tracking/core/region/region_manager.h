@@ -1,8 +1,9 @@
 // Many regions over a bounded cache of motion data (paper 3.2, "random access").
 //
 // The cache keeps the last `cache_seconds` of motion data. A region can be
-// added at any cached stamp: it is tracked forward to the latest frame on the
-// next update() (or when its states are asked for), and backwards on demand. statesAt() returns the regions' states at any
+// added at any cached stamp: it is tracked forward to the latest frame on
+// the next update() (or when its states are asked for), and backwards on
+// demand. statesAt() returns the regions' states at any
 // cached stamp. Per-region work is proportional to the features inside it;
 // the motion analysis is shared by all regions.
 //
@@ -73,6 +74,8 @@ class RegionManager {
   double oldestStamp() const { return cache_.oldestStamp(); }
   double newestStamp() const { return cache_.newestStamp(); }
   size_t size() const { return regions_.size(); }
+  // Whole-frame pyramids built for the regions' own features so far.
+  size_t pyramidsBuilt() const { return pyramids_built_; }
   std::vector<uint32_t> ids() const;  // in id order
   const std::string& lastReset() const { return last_reset_; }
 
@@ -86,9 +89,15 @@ class RegionManager {
   // Steps `r` to frame `seq` from its nearest known state (forward or
   // backward). What a step does depends on the other regions only through
   // those given at or before the frame stepped into (the look's turns, the
-  // shared pyramids): the same whatever order the regions were added and
-  // stepped in, so live and offline agree.
+  // shared pyramids), not on the order of the adds and steps: live and
+  // offline agree when the regions a frame counts were known when its steps
+  // ran (given at the present frame, or added together). A region added
+  // later with a past stamp does not redo the others' steps since then.
   const RegionState& stateAt(Region& r, uint64_t seq);
+  // Steps `regions` to frame `seq` together, frame by frame (each frame's
+  // shared pyramid built once for them all).
+  void stepTogether(const std::vector<Region*>& regions, uint64_t seq);
+  std::vector<Region*> all();
   // How many regions share frame `seq` for `r`: r and the others given at
   // or before it.
   size_t sharing(const Region& r, uint64_t seq);
@@ -103,6 +112,8 @@ class RegionManager {
     double crop_pixels = 0;
   };
   const Given& givenUpTo(uint64_t seq);
+  // Counts `r` in (sign +1) or out of (-1) the memo's frames from its given one.
+  void countGiven(const Region& r, int sign);
   // The cached frame `seq`, its camera motion from the fallback when its own
   // model is invalid (`scratch` holds the patched copy).
   const MotionData& frame(uint64_t seq, MotionData* scratch) const;
@@ -120,6 +131,7 @@ class RegionManager {
   cv::Mat newest_image_;  // the latest frame's image, also when the cache's budget keeps none
   std::map<uint64_t, std::vector<cv::Mat>> pyramids_;  // by frame sequence number, a few
   std::map<uint64_t, Given> given_;                    // givenUpTo() by frame sequence number
+  size_t pyramids_built_ = 0;
 };
 
 }  // namespace imt

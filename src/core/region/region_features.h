@@ -2,7 +2,8 @@
 // inside its box and tracked between two frames with OpenCV's pyramidal
 // Lucas-Kanade on crops around the box, at a resolution that fits the box
 // (full resolution for small boxes, downscaled so the box's longer side is
-// about `scale_px` px for large ones), checked forward-backward. They make
+// about `scale_px` px for large ones; with many regions at full resolution,
+// the whole frame's pyramid shared by them all), checked forward-backward. They make
 // sure a region has motion vectors of its own however small it is and
 // whatever the motion analysis's uniform grid gave it, and they work the same
 // in both time directions, on any cached frame.

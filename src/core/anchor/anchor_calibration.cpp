@@ -67,6 +67,65 @@ void AnchorManager::readTurns() {
   }
   // Bounded: turns the gyro never covers (an IMU that stopped) are dropped.
   while (turns_.size() > kMaxWaitingTurns) turns_.pop_front();
+  readEpipolarFrames();
+}
+
+void AnchorManager::addEpipolarFrame(const MotionData& md, double t0) {
+  const CameraModel k = intrinsics();
+  if (!k.valid || md.camera.model == MotionModel::kInvalid || !md.camera.H.allFinite()) return;
+  const Eigen::Matrix3d H_inv = md.camera.H.inverse(), K_inv = k.K().inverse();
+  if (!H_inv.allFinite()) return;
+  // A row is read readout * (y / height - 0.5) after the middle row, which
+  // the image's stamp (plus the time offset) stands for.
+  const double readout = options_.rolling_shutter_readout;
+  const auto rowTime = [&](double stamp, double y) { return stamp + readout * (y / k.height - 0.5); };
+  EpipolarFrame frame;
+  frame.t1 = md.stamp;
+  for (const FeatureMotion& f : md.features) {
+    if (f.age == 0) continue;  // new this frame: no motion yet
+    // Where it was: the camera motion's preimage of where it would be without its own motion.
+    const Eigen::Vector3d q = H_inv * Eigen::Vector3d(f.x - f.dx, f.y - f.dy, 1);
+    if (!(q.z() > 0)) continue;
+    const cv::Point2d p0 = k.undistort(cv::Point2d(q.x() / q.z(), q.y() / q.z())), p1 = k.undistort(cv::Point2d(f.x, f.y));
+    EpipolarPair pair;
+    pair.ray0 = K_inv * Eigen::Vector3d(p0.x, p0.y, 1);
+    pair.ray1 = K_inv * Eigen::Vector3d(p1.x, p1.y, 1);
+    pair.t0 = rowTime(t0, q.y() / q.z());
+    pair.t1 = rowTime(md.stamp, f.y);
+    frame.pairs.push_back(pair);
+  }
+  epipolar_frames_.push_back(std::move(frame));
+  while (epipolar_frames_.size() > kMaxWaitingTurns) epipolar_frames_.pop_front();
+}
+
+void AnchorManager::readEpipolarFrames() {
+  while (!epipolar_frames_.empty() && !imu_.empty() &&
+         epipolar_frames_.front().t1 + options_.rolling_shutter_readout / 2 + imu_.timeOffset() <= imu_.newestStamp()) {
+    EpipolarFrame frame = std::move(epipolar_frames_.front());
+    epipolar_frames_.pop_front();
+    if (rotation_source_ != RotationSource::kNone) continue;
+    EpipolarCamImuRotation::Options o = epipolar_rotation_.options();
+    o.focal_px = intrinsics().fx;
+    if (o.focal_px != epipolar_rotation_.options().focal_px) epipolar_rotation_ = EpipolarCamImuRotation(o);
+    epipolar_rotation_.addFrame(frame.pairs);
+    if (++epipolar_since_fit_ < kEpipolarRefitFrames) continue;
+    const auto start = video_rotation_.bestFit();
+    if (!start || video_rotation_.estimate()) continue;  // no start yet, or the turns' fit is taken
+    epipolar_since_fit_ = 0;
+    epipolar_fit_ = epipolar_rotation_.fit(*start, [this](double s0, double s1, Eigen::Vector3d* theta_imu) {
+      Eigen::Matrix3d turn;
+      if (!imuTurn(s0, s1, &turn)) return false;
+      *theta_imu = rotationVector(turn);
+      return true;
+    });
+    if (epipolar_fit_ && epipolar_fit_->sharp) useRotation(epipolar_fit_->R_cam_imu, RotationSource::kVideo, frame.t1);
+  }
+}
+
+void AnchorManager::clearEpipolarFrames() {
+  epipolar_frames_.clear();
+  epipolar_rotation_.clear();
+  epipolar_since_fit_ = 0;
 }
 
 bool AnchorManager::imuTurn(double t0, double t1, Eigen::Matrix3d* turn) const {

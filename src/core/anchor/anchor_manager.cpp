@@ -79,6 +79,7 @@ std::string AnchorOptions::validate() const {
   c.check(surface == "horizontal" || surface == "facing", "surface", "must be horizontal or facing",
           "\"" + surface + "\"");
   c.inRange("imu_time_offset", imu_time_offset, -1.0, 1.0);
+  c.inRange("rolling_shutter_readout", rolling_shutter_readout, 0.0, 0.2);
   c.inRange("max_anchors", max_anchors, 1, 100000);
   Eigen::Quaterniond q;
   c.check(rotation_cam_imu.empty() || rotationCamImu(&q), "rotation_cam_imu",
@@ -219,6 +220,7 @@ ImuInput AnchorManager::addImu(const ImuSample& s, std::string* why) {
 void AnchorManager::resetImu() {
   imu_.reset();
   turns_.clear();
+  clearEpipolarFrames();
   slow_turn_ = SlowTurn();
   clearVideoBias();
   bias_applied_at_ = -std::numeric_limits<double>::infinity();
@@ -230,6 +232,7 @@ void AnchorManager::update() {
   if (!regions_->lastReset().empty()) {
     anchors_.clear();  // the region manager dropped their regions
     turns_.clear();
+    clearEpipolarFrames();
     slow_turn_ = SlowTurn();
     clearVideoBias();  // the new stream's stamps start before the old one's
     bias_applied_at_ = -std::numeric_limits<double>::infinity();
@@ -254,6 +257,7 @@ void AnchorManager::update() {
     }
     // The IMU's stillness needs the video's agreement (a slow turn feels still).
     imu_.addVideoTurn(t0, md.stamp, theta, known);
+    if (rotation_source_ == RotationSource::kNone) addEpipolarFrame(md, t0);
   }
   readTurns();
   if (time_offset_.turns() >= next_offset_fit_) fitTimeOffset();

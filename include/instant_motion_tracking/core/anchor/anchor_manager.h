@@ -64,6 +64,7 @@
 #pragma once
 
 #include "instant_motion_tracking/core/anchor/cam_imu_rotation.h"
+#include "instant_motion_tracking/core/anchor/epipolar_rotation.h"
 #include "instant_motion_tracking/core/anchor/time_offset.h"
 #include "instant_motion_tracking/core/anchor/video_gyro_bias.h"
 #include "instant_motion_tracking/core/anchor/imu_orientation.h"
@@ -138,6 +139,8 @@ class AnchorManager {
   static const char* rotationSourceName(RotationSource s);  // "none", "options", "tf", "video"
   // The video's own estimate (also when another source gives the rotation).
   const CamImuRotationEstimator& videoRotation() const { return video_rotation_; }
+  // The last fit from the features' epipolar lines (none until one was made).
+  const std::optional<EpipolarRotationFit>& epipolarRotationFit() const { return epipolar_fit_; }
   // "" or, when the rotation in use (options or tf) and the video's estimate
   // differ by more than kRotationDisagreementDeg, a message naming both.
   std::string rotationDisagreement() const;
@@ -275,6 +278,26 @@ class AnchorManager {
     Eigen::Matrix3d H = Eigen::Matrix3d::Identity();       // the frame's camera motion
   };
   std::deque<Turn> turns_;
+  // The IMU-to-camera rotation from the features' epipolar lines, for a
+  // camera that travels as it turns (a phone in a car, a walking robot),
+  // where the turns' fit above refuses what the travel adds to the turns.
+  // While no rotation is known, each frame's feature pairs wait, as its
+  // turn does, for the gyro to cover them; every kEpipolarRefitFrames
+  // frames so read, while the turns' fit refuses, the pairs are fitted from
+  // the turns' best fit, and a sharp fit is used (RotationSource::kVideo).
+  // The frames read are the same live and offline, so is the fit.
+  struct EpipolarFrame {
+    double t1 = 0;
+    std::vector<EpipolarPair> pairs;
+  };
+  void addEpipolarFrame(const MotionData& md, double t0);
+  void readEpipolarFrames();
+  void clearEpipolarFrames();
+  EpipolarCamImuRotation epipolar_rotation_;
+  std::deque<EpipolarFrame> epipolar_frames_;
+  int epipolar_since_fit_ = 0;
+  std::optional<EpipolarRotationFit> epipolar_fit_;
+  static constexpr int kEpipolarRefitFrames = 30;
   // The camera's turn over `t` read over the floor or as a turn and a zoom,
   // whichever explains the background better; false when neither does.
   bool floorTurn(const Turn& t, Eigen::Vector3d* theta_cam) const;

@@ -20,6 +20,7 @@ struct AnchorOptions {
   std::string surface = "horizontal";
   double imu_time_offset = 0.0;
   bool estimate_imu_time_offset = true;
+  double rolling_shutter_readout = 0.0;
   int max_anchors = 256;
 
   template <class V>
@@ -49,6 +50,10 @@ struct AnchorOptions {
       "over a near plane biases them (+14 ms on the rendered floor walk); the bias fit refines it (where "
       "the video found the IMU-to-camera rotation, once its last two fits agree); false: imu_time_offset "
       "as given");
+    v("rolling_shutter_readout", rolling_shutter_readout,
+      "s from the first image row's read to the last's (a phone's rolling shutter: about a frame period); 0 = "
+      "a global shutter. Where the IMU-to-camera rotation is read from the features' epipolar lines (a camera "
+      "that travels as it turns), each row's gyro turn is taken at its own time, imu_time_offset at the middle row");
     v("max_anchors", max_anchors,
       "anchors tracked at most; add_anchor and INIT.yaml are refused beyond (each tracks a region of its own, "
       "not counted in region_tracking.max_regions)");

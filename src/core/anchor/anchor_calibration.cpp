@@ -42,9 +42,14 @@ void AnchorManager::fitTimeOffset() {
 void AnchorManager::readTurns() {
   // The gyro's turn over each interval it covers now; the video's turns
   // wait for it (live, the IMU may lag the frames).
-  while (!turns_.empty() && !imu_.empty() && turns_.front().t1 + imu_.timeOffset() <= imu_.newestStamp()) {
+  // (The rows' latest, with a rolling shutter.) The features' epipolar
+  // frames are read in the same order, each after the turns before it and
+  // before the turns after it, however late the gyro comes.
+  const double wait = options_.rolling_shutter_readout / 2;
+  while (!turns_.empty() && !imu_.empty() && turns_.front().t1 + wait + imu_.timeOffset() <= imu_.newestStamp()) {
     const Turn t = turns_.front();
     turns_.pop_front();
+    readEpipolarFrames(t.t1);
     Eigen::Matrix3d turn;  // the IMU at t1 in the IMU at t0
     if (!imuTurn(t.t0, t.t1, &turn)) continue;
     // The turn over the floor, read once for both that want it.
@@ -67,7 +72,7 @@ void AnchorManager::readTurns() {
   }
   // Bounded: turns the gyro never covers (an IMU that stopped) are dropped.
   while (turns_.size() > kMaxWaitingTurns) turns_.pop_front();
-  readEpipolarFrames();
+  readEpipolarFrames(std::numeric_limits<double>::infinity());
 }
 
 void AnchorManager::addEpipolarFrame(const MotionData& md, double t0) {
@@ -76,13 +81,18 @@ void AnchorManager::addEpipolarFrame(const MotionData& md, double t0) {
   const Eigen::Matrix3d H_inv = md.camera.H.inverse(), K_inv = k.K().inverse();
   if (!H_inv.allFinite()) return;
   // A row is read readout * (y / height - 0.5) after the middle row, which
-  // the image's stamp (plus the time offset) stands for.
+  // the image's stamp (plus the time offset) stands for (rows top to bottom).
   const double readout = options_.rolling_shutter_readout;
   const auto rowTime = [&](double stamp, double y) { return stamp + readout * (y / k.height - 0.5); };
+  std::vector<const FeatureMotion*> moving;  // new this frame: no motion yet
+  for (const FeatureMotion& f : md.features)
+    if (f.age > 0) moving.push_back(&f);
   EpipolarFrame frame;
   frame.t1 = md.stamp;
-  for (const FeatureMotion& f : md.features) {
-    if (f.age == 0) continue;  // new this frame: no motion yet
+  frame.focal_px = k.fx;
+  const size_t keep = std::min(moving.size(), static_cast<size_t>(epipolar_rotation_.options().max_pairs_per_frame));
+  for (size_t i = 0; i < keep; ++i) {
+    const FeatureMotion& f = *moving[i * moving.size() / keep];  // evenly over the list
     // Where it was: the camera motion's preimage of where it would be without its own motion.
     const Eigen::Vector3d q = H_inv * Eigen::Vector3d(f.x - f.dx, f.y - f.dy, 1);
     if (!(q.z() > 0)) continue;
@@ -90,35 +100,42 @@ void AnchorManager::addEpipolarFrame(const MotionData& md, double t0) {
     EpipolarPair pair;
     pair.ray0 = K_inv * Eigen::Vector3d(p0.x, p0.y, 1);
     pair.ray1 = K_inv * Eigen::Vector3d(p1.x, p1.y, 1);
-    pair.t0 = rowTime(t0, q.y() / q.z());
-    pair.t1 = rowTime(md.stamp, f.y);
     frame.pairs.push_back(pair);
+    frame.times.emplace_back(rowTime(t0, q.y() / q.z()), rowTime(md.stamp, f.y));
   }
   epipolar_frames_.push_back(std::move(frame));
   while (epipolar_frames_.size() > kMaxWaitingTurns) epipolar_frames_.pop_front();
 }
 
-void AnchorManager::readEpipolarFrames() {
-  while (!epipolar_frames_.empty() && !imu_.empty() &&
-         epipolar_frames_.front().t1 + options_.rolling_shutter_readout / 2 + imu_.timeOffset() <= imu_.newestStamp()) {
+void AnchorManager::readEpipolarFrames(double before) {
+  const double wait = options_.rolling_shutter_readout / 2;
+  while (!epipolar_frames_.empty() && !imu_.empty() && epipolar_frames_.front().t1 < before &&
+         epipolar_frames_.front().t1 + wait + imu_.timeOffset() <= imu_.newestStamp()) {
     EpipolarFrame frame = std::move(epipolar_frames_.front());
     epipolar_frames_.pop_front();
     if (rotation_source_ != RotationSource::kNone) continue;
-    EpipolarCamImuRotation::Options o = epipolar_rotation_.options();
-    o.focal_px = intrinsics().fx;
-    if (o.focal_px != epipolar_rotation_.options().focal_px) epipolar_rotation_ = EpipolarCamImuRotation(o);
-    epipolar_rotation_.addFrame(frame.pairs);
-    if (++epipolar_since_fit_ < kEpipolarRefitFrames) continue;
+    // Each pair's gyro turn over its own rows' times, read once, now.
+    std::vector<EpipolarPair> pairs;
+    for (size_t i = 0; i < frame.pairs.size(); ++i) {
+      Eigen::Matrix3d turn;
+      if (!imuTurn(frame.times[i].first, frame.times[i].second, &turn)) continue;
+      pairs.push_back(frame.pairs[i]);
+      pairs.back().theta_imu = rotationVector(turn);
+    }
+    epipolar_rotation_.addFrame(pairs, frame.focal_px);
+    if (++epipolar_since_fit_ < epipolar_interval_) continue;
     const auto start = video_rotation_.bestFit();
     if (!start || video_rotation_.estimate()) continue;  // no start yet, or the turns' fit is taken
     epipolar_since_fit_ = 0;
-    epipolar_fit_ = epipolar_rotation_.fit(*start, [this](double s0, double s1, Eigen::Vector3d* theta_imu) {
-      Eigen::Matrix3d turn;
-      if (!imuTurn(s0, s1, &turn)) return false;
-      *theta_imu = rotationVector(turn);
-      return true;
-    });
-    if (epipolar_fit_ && epipolar_fit_->sharp) useRotation(epipolar_fit_->R_cam_imu, RotationSource::kVideo, frame.t1);
+    const auto fit = epipolar_rotation_.fit(*start);
+    if (!fit) continue;
+    epipolar_fit_ = fit;
+    if (fit->sharp) {
+      useRotation(fit->R_cam_imu, RotationSource::kVideo, frame.t1);
+    } else {
+      // Not sharp three times (a straight drive): wait longer before the next, up to 8 times.
+      if (++epipolar_refused_ >= 3) epipolar_interval_ = std::min(2 * epipolar_interval_, 8 * kEpipolarRefitFrames);
+    }
   }
 }
 
@@ -126,6 +143,8 @@ void AnchorManager::clearEpipolarFrames() {
   epipolar_frames_.clear();
   epipolar_rotation_.clear();
   epipolar_since_fit_ = 0;
+  epipolar_interval_ = kEpipolarRefitFrames;
+  epipolar_refused_ = 0;
 }
 
 bool AnchorManager::imuTurn(double t0, double t1, Eigen::Matrix3d* turn) const {

@@ -285,23 +285,30 @@ class AnchorManager {
   // The IMU-to-camera rotation from the features' epipolar lines, for a
   // camera that travels as it turns (a phone in a car, a walking robot),
   // where the turns' fit above refuses what the travel adds to the turns.
-  // While no rotation is known, each frame's feature pairs wait, as its
-  // turn does, for the gyro to cover them; every kEpipolarRefitFrames
-  // frames so read, while the turns' fit refuses, the pairs are fitted from
-  // the turns' best fit, and a sharp fit is used (RotationSource::kVideo).
-  // The frames read are the same live and offline, so is the fit.
+  // While no rotation is known, each frame's feature pairs (at most the
+  // estimator's max_pairs_per_frame) wait, as its turn does, for the gyro
+  // to cover them, and are read in stamp order with the turns: each pair's
+  // gyro turn is read then, over its own rows' times. Every
+  // kEpipolarRefitFrames frames so read (doubling after the third fit that
+  // is not sharp, and each after it, up to 8 times), while the turns' fit refuses, the pairs are
+  // fitted from the turns' best fit, and a sharp fit is used
+  // (RotationSource::kVideo). The frames read and their order are the same
+  // live and offline, so is the fit.
   struct EpipolarFrame {
-    double t1 = 0;
+    double t1 = 0, focal_px = 0;
     std::vector<EpipolarPair> pairs;
+    std::vector<std::pair<double, double>> times;  // each pair's rows' image stamps
   };
   void addEpipolarFrame(const MotionData& md, double t0);
-  void readEpipolarFrames();
+  void readEpipolarFrames(double before);  // those the gyro covers, stamped before `before`
   void clearEpipolarFrames();
   EpipolarCamImuRotation epipolar_rotation_;
   std::deque<EpipolarFrame> epipolar_frames_;
   int epipolar_since_fit_ = 0;
-  std::optional<EpipolarRotationFit> epipolar_fit_;
   static constexpr int kEpipolarRefitFrames = 30;
+  int epipolar_interval_ = kEpipolarRefitFrames;
+  int epipolar_refused_ = 0;  // fits that were not sharp
+  std::optional<EpipolarRotationFit> epipolar_fit_;
   // The camera's turn over `t` read over the floor or as a turn and a zoom,
   // whichever explains the background better; false when neither does.
   bool floorTurn(const Turn& t, Eigen::Vector3d* theta_cam) const;

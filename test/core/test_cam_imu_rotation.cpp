@@ -483,8 +483,11 @@ TEST(EpipolarCamImuRotation, PhoneClipThroughTheAnchors) {
   struct Run {
     AnchorManager::RotationSource source;
     double err_deg = -1, spread_deg = -1;
+    Eigen::Quaterniond R = Eigen::Quaterniond::Identity();
   };
-  auto run = [&](double offset) {
+  // `lag_frames` > 0: the gyro comes in bursts, up to that many frames
+  // after the frames it covers (a live graph whose IMU lags).
+  auto run = [&](double offset, int lag_frames = 0) {
     RegionManager regions(RegionTrackerOptions(), 10.0);
     AnchorOptions ao;
     ao.rolling_shutter_readout = 0.0333;
@@ -503,13 +506,17 @@ TEST(EpipolarCamImuRotation, PhoneClipThroughTheAnchors) {
     };
     imuUpTo(clip.frame_stamps[97]);
     for (int f = 100; f <= 201; ++f) {
-      imuUpTo(clip.frame_stamps[f - 1] + 0.02);
+      if (lag_frames == 0)
+        imuUpTo(clip.frame_stamps[f - 1] + 0.02);
+      else if ((f - 100) % lag_frames == 0)
+        imuUpTo(clip.frame_stamps[f - 1 - lag_frames]);
       regions.update(mds[f - 100]);
       anchors.update();
     }
     imuUpTo(clip.frame_stamps[200] + 0.1);
     Run r{anchors.rotationSource()};
     if (const auto& fit = anchors.epipolarRotationFit()) {
+      r.R = fit->R_cam_imu;
       r.err_deg = angleDeg(fit->R_cam_imu.toRotationMatrix(), clip.R_cam_imu);
       r.spread_deg = fit->spread_deg;
     }
@@ -519,8 +526,10 @@ TEST(EpipolarCamImuRotation, PhoneClipThroughTheAnchors) {
     return r;
   };
   // Over 3.4 s the time offset estimator has too few turns to apply its
-  // offset, so the run that starts from the offset it finds (14.2 ms, the
-  // test below) is the one a longer video would give.
+  // offset (its first fit, at 60 turns, had 57 the gyro covered, under its
+  // 60; the next is due at 120, the clip has 89), so the run that starts
+  // from the offset it finds (14.2 ms, the test below) is the one a longer
+  // video would give.
   const Run found = run(0.0142);
   EXPECT_EQ(found.source, AnchorManager::RotationSource::kVideo);
   EXPECT_LT(found.err_deg, 4.0);  // as the fit above (issue 14: within a few degrees)
@@ -529,6 +538,11 @@ TEST(EpipolarCamImuRotation, PhoneClipThroughTheAnchors) {
   const Run unaligned = run(0.0);
   EXPECT_GE(unaligned.spread_deg, 0);  // a fit was made,
   EXPECT_NE(unaligned.source, AnchorManager::RotationSource::kVideo);  // and refused
+  // The gyro coming in bursts up to 7 frames late (live) changes nothing:
+  // the frames' pairs are read in the same order with the same gyro turns.
+  const Run lagging = run(0.0142, 7);
+  EXPECT_EQ(lagging.source, found.source);
+  EXPECT_EQ(lagging.R.coeffs(), found.R.coeffs());
 }
 
 // The camera-IMU time offset on the phone clip: found from the turn angles

@@ -544,6 +544,12 @@ class TrackBagRun {
       d["R_cam_imu"] = {{R(0, 0), R(0, 1), R(0, 2)}, {R(1, 0), R(1, 1), R(1, 2)},
                         {R(2, 0), R(2, 1), R(2, 2)}};
     }
+    // The video's fit from the features' epipolar lines, when one was made
+    // (the turns' fit refused: a camera that travels as it turns).
+    d["R_cam_imu_epipolar"] = nullptr;
+    if (const auto& f = session_->epipolarRotationFit())
+      d["R_cam_imu_epipolar"] = {{"sharp", f->sharp}, {"halves_deg", f->spread_deg}, {"inliers", f->inlier_fraction},
+                                 {"frames", f->frames}, {"pairs", f->pairs}};
     // The camera-IMU time offset in use, and what the video showed of it.
     d["imu_time_offset"] = session_->timeOffset();
     d["imu_time_offset_source"] = imt::AnchorManager::offsetSourceName(session_->timeOffsetSource());

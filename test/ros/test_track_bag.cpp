@@ -320,6 +320,8 @@ TEST_F(TrackBag, NoCameraInfoNoTfAndNanImuAreNotedOnce) {
   EXPECT_EQ(j["imu_dropped"], 3);
   EXPECT_TRUE(j["R_cam_imu"].is_null());
   EXPECT_EQ(j["R_cam_imu_source"], "none");
+  ASSERT_TRUE(j.contains("R_cam_imu_epipolar"));  // null: no epipolar fit on a bag this short (40 frames needed)
+  EXPECT_TRUE(j["R_cam_imu_epipolar"].is_null());
   EXPECT_TRUE(j["camera_info_topic"].is_null());
   EXPECT_EQ(j["intrinsics"]["source"], "field_of_view");
 }

@@ -93,6 +93,8 @@ class TrackingSession {
   const std::optional<Eigen::Quaterniond>& rotationCamImu() const { return anchors_->imu().rotationCamImu(); }
   AnchorManager::RotationSource rotationSource() const { return anchors_->rotationSource(); }
   const CamImuRotationEstimator& videoRotation() const { return anchors_->videoRotation(); }
+  // The last fit from the features' epipolar lines (a camera that travels as it turns).
+  const std::optional<EpipolarRotationFit>& epipolarRotationFit() const { return anchors_->epipolarRotationFit(); }
   // "" or a message: tf (or the option) and the video disagree on that rotation.
   std::string rotationDisagreement() const { return anchors_->rotationDisagreement(); }
   // The camera-IMU time offset in use and the video's last fit of it.

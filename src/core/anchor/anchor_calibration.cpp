@@ -66,7 +66,12 @@ void AnchorManager::readTurns() {
     const auto estimate = video_rotation_.estimate();
     if (!estimate) continue;
     const bool first = rotation_source_ == RotationSource::kNone;
-    const bool moved = rotation_source_ == RotationSource::kVideo &&
+    // Over the epipolar fit's only within kRotationDisagreementDeg of it:
+    // the turns are what the travel biases, and once found the turns read
+    // over the floor refine it (the rendered floor walk: 0.32 -> 0.06 deg).
+    const bool agrees = !epipolar_used_ || epipolar_used_->angularDistance(*estimate) * 180 / M_PI <=
+                                               kRotationDisagreementDeg;
+    const bool moved = rotation_source_ == RotationSource::kVideo && agrees &&
                        rotations_.back().second.angularDistance(*estimate) * 180 / M_PI > kRotationUpdateDeg;
     if (first || moved) useRotation(*estimate, RotationSource::kVideo, t.t1);
   }
@@ -113,7 +118,7 @@ void AnchorManager::readEpipolarFrames(double before) {
          epipolar_frames_.front().t1 + wait + imu_.timeOffset() <= imu_.newestStamp()) {
     EpipolarFrame frame = std::move(epipolar_frames_.front());
     epipolar_frames_.pop_front();
-    if (rotation_source_ != RotationSource::kNone) continue;
+    if (!epipolarWanted()) continue;
     // Each pair's gyro turn over its own rows' times, read once, now.
     std::vector<EpipolarPair> pairs;
     for (size_t i = 0; i < frame.pairs.size(); ++i) {
@@ -125,18 +130,35 @@ void AnchorManager::readEpipolarFrames(double before) {
     epipolar_rotation_.addFrame(pairs, frame.focal_px);
     if (++epipolar_since_fit_ < epipolar_interval_) continue;
     const auto start = video_rotation_.bestFit();
-    if (!start || video_rotation_.estimate()) continue;  // no start yet, or the turns' fit is taken
+    if (!start) continue;
     epipolar_since_fit_ = 0;
     const auto fit = epipolar_rotation_.fit(*start);
     if (!fit) continue;
     epipolar_fit_ = fit;
     if (fit->sharp) {
-      useRotation(fit->R_cam_imu, RotationSource::kVideo, frame.t1);
+      // Used where no rotation is known, or where it disagrees with the
+      // turns' (which the travel biases) by more than kRotationDisagreementDeg;
+      // a sharp fit that agrees confirms the turns'. Either way the
+      // epipolar fits end here.
+      const bool disagrees = rotation_source_ == RotationSource::kVideo &&
+                             rotations_.back().second.angularDistance(fit->R_cam_imu) * 180 / M_PI >
+                                 kRotationDisagreementDeg;
+      if (rotation_source_ == RotationSource::kNone || disagrees) {
+        useRotation(fit->R_cam_imu, RotationSource::kVideo, frame.t1);
+        epipolar_used_ = fit->R_cam_imu;
+      }
+      epipolar_done_ = true;
+      epipolar_frames_.clear();
+      epipolar_rotation_.clear();
     } else {
       // Not sharp three times (a straight drive): wait longer before the next, up to 8 times.
       if (++epipolar_refused_ >= 3) epipolar_interval_ = std::min(2 * epipolar_interval_, 8 * kEpipolarRefitFrames);
     }
   }
+}
+
+bool AnchorManager::epipolarWanted() const {
+  return !epipolar_done_ && (rotation_source_ == RotationSource::kNone || rotation_source_ == RotationSource::kVideo);
 }
 
 void AnchorManager::clearEpipolarFrames() {

@@ -257,7 +257,7 @@ void AnchorManager::update() {
     }
     // The IMU's stillness needs the video's agreement (a slow turn feels still).
     imu_.addVideoTurn(t0, md.stamp, theta, known);
-    if (rotation_source_ == RotationSource::kNone) addEpipolarFrame(md, t0);
+    if (epipolarWanted()) addEpipolarFrame(md, t0);
   }
   readTurns();
   if (time_offset_.turns() >= next_offset_fit_) fitTimeOffset();

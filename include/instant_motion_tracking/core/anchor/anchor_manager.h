@@ -284,16 +284,19 @@ class AnchorManager {
   std::deque<Turn> turns_;
   // The IMU-to-camera rotation from the features' epipolar lines, for a
   // camera that travels as it turns (a phone in a car, a walking robot),
-  // where the turns' fit above refuses what the travel adds to the turns.
-  // While no rotation is known, each frame's feature pairs (at most the
-  // estimator's max_pairs_per_frame) wait, as its turn does, for the gyro
-  // to cover them, and are read in stamp order with the turns: each pair's
-  // gyro turn is read then, over its own rows' times. Every
-  // kEpipolarRefitFrames frames so read (doubling after the third fit that
-  // is not sharp, and each after it, up to 8 times), while the turns' fit refuses, the pairs are
-  // fitted from the turns' best fit, and a sharp fit is used
-  // (RotationSource::kVideo). The frames read and their order are the same
-  // live and offline, so is the fit.
+  // where the turns' fit above takes part of the travel for a turn: it
+  // refuses, or it accepts a rotation some degrees off (a rendered drive:
+  // 6-18 deg). While no rotation is known or the video's turns gave it,
+  // each frame's feature pairs (at most the estimator's max_pairs_per_frame)
+  // wait, as its turn does, for the gyro to cover them, and are read in
+  // stamp order with the turns: each pair's gyro turn is read then, over
+  // its own rows' times. Every kEpipolarRefitFrames frames so read
+  // (doubling after the third fit that is not sharp, and each after it, up
+  // to 8 times) the pairs are fitted from the turns' best fit. The first
+  // sharp fit ends it: used where no rotation is known or where the turns'
+  // disagrees with it by more than kRotationDisagreementDeg (the turns' fit
+  // then moves it only within that of it), else it confirms the turns'. The frames read
+  // and their order are the same live and offline, so is the fit.
   struct EpipolarFrame {
     double t1 = 0, focal_px = 0;
     std::vector<EpipolarPair> pairs;
@@ -302,6 +305,9 @@ class AnchorManager {
   void addEpipolarFrame(const MotionData& md, double t0);
   void readEpipolarFrames(double before);  // those the gyro covers, stamped before `before`
   void clearEpipolarFrames();
+  bool epipolarWanted() const;
+  std::optional<Eigen::Quaterniond> epipolar_used_;  // the epipolar fit's rotation, once used
+  bool epipolar_done_ = false;           // a sharp epipolar fit was made (kept across resets: the rig's)
   EpipolarCamImuRotation epipolar_rotation_;
   std::deque<EpipolarFrame> epipolar_frames_;
   int epipolar_since_fit_ = 0;

@@ -31,10 +31,10 @@
 // (CamImuRotationEstimator; needs turns about two axes; once it has a first
 // estimate, the turns are read over the floor where that explains the
 // background better, as the bias's are below). A camera that travels as it
-// turns (a phone in a car) adds its travel to those turns and their fit
-// refuses; the features' epipolar lines then give it
-// (EpipolarCamImuRotation, each row's gyro turn at its own time under
-// anchors.rolling_shutter_readout). Until one of them
+// turns (a phone in a car) adds its travel to those turns: their fit
+// refuses, or takes a rotation some degrees off; the features' epipolar
+// lines then give it or check it (EpipolarCamImuRotation, each row's gyro
+// turn at its own time under anchors.rolling_shutter_readout). Until one of them
 // gives it the anchors are `calibrating`: translation only, as no_imu. When
 // the rotation changes (tf arrives, the video's estimate moves by more than
 // kRotationUpdateDeg) the anchors' orientations follow it: each keeps the

@@ -545,7 +545,7 @@ class TrackBagRun {
                         {R(2, 0), R(2, 1), R(2, 2)}};
     }
     // The video's fit from the features' epipolar lines, when one was made
-    // (the turns' fit refused: a camera that travels as it turns).
+    // (no rotation known yet, or the turns' to check: a camera that travels as it turns).
     d["R_cam_imu_epipolar"] = nullptr;
     if (const auto& f = session_->epipolarRotationFit())
       d["R_cam_imu_epipolar"] = {{"sharp", f->sharp}, {"halves_deg", f->spread_deg}, {"inliers", f->inlier_fraction},

@@ -42,11 +42,9 @@ void AnchorManager::fitTimeOffset() {
 void AnchorManager::readTurns() {
   // The gyro's turn over each interval it covers now; the video's turns
   // wait for it (live, the IMU may lag the frames).
-  // (The rows' latest, with a rolling shutter.) The features' epipolar
-  // frames are read in the same order, each after the turns before it and
-  // before the turns after it, however late the gyro comes.
-  const double wait = options_.rolling_shutter_readout / 2;
-  while (!turns_.empty() && !imu_.empty() && turns_.front().t1 + wait + imu_.timeOffset() <= imu_.newestStamp()) {
+  // The features' epipolar frames are read in the same order, each after
+  // the turns before it and before the turns after it (gyroCovers).
+  while (!turns_.empty() && gyroCovers(turns_.front().t1)) {
     const Turn t = turns_.front();
     turns_.pop_front();
     readEpipolarFrames(t.t1);
@@ -113,9 +111,7 @@ void AnchorManager::addEpipolarFrame(const MotionData& md, double t0) {
 }
 
 void AnchorManager::readEpipolarFrames(double before) {
-  const double wait = options_.rolling_shutter_readout / 2;
-  while (!epipolar_frames_.empty() && !imu_.empty() && epipolar_frames_.front().t1 < before &&
-         epipolar_frames_.front().t1 + wait + imu_.timeOffset() <= imu_.newestStamp()) {
+  while (!epipolar_frames_.empty() && epipolar_frames_.front().t1 < before && gyroCovers(epipolar_frames_.front().t1)) {
     EpipolarFrame frame = std::move(epipolar_frames_.front());
     epipolar_frames_.pop_front();
     if (!epipolarWanted()) continue;
@@ -167,6 +163,12 @@ void AnchorManager::clearEpipolarFrames() {
   epipolar_since_fit_ = 0;
   epipolar_interval_ = kEpipolarRefitFrames;
   epipolar_refused_ = 0;
+}
+
+bool AnchorManager::gyroCovers(double t1) const {
+  // The rows' latest, with a rolling shutter: one wait for the turns and the
+  // epipolar frames, so they are read in the same order however late the gyro comes.
+  return !imu_.empty() && t1 + options_.rolling_shutter_readout / 2 + imu_.timeOffset() <= imu_.newestStamp();
 }
 
 bool AnchorManager::imuTurn(double t0, double t1, Eigen::Matrix3d* turn) const {

@@ -263,6 +263,8 @@ class AnchorManager {
   // at t0, read at the time offset, as the gyro measured it); false before
   // the IMU began or across a gap.
   bool imuTurn(double t0, double t1, Eigen::Matrix3d* turn) const;
+  // Whether the gyro covers a frame stamped t1 (its last row's time, at the time offset).
+  bool gyroCovers(double t1) const;
   // The IMU's turn between IMU stamps s0 and s1 for the camera fallback;
   // up to kFallbackLeadSeconds past the newest sample, extrapolated.
   bool fallbackTurn(double s0, double s1, Eigen::Matrix3d* turn) const;

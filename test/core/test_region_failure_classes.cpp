@@ -174,15 +174,18 @@ TEST(RegionFailureClass, SmallTargetAt720p) {
       "frames (goal %.2f)\n",
       b.width, b.height, t.size.width, t.size.height, t.start, iou, n, kGoal);
   EXPECT_GT(n, 200);
-  // Measured 0.861 (seeds 2-4: 0.772, 0.890, 0.791), the region turning with
-  // the camera's roll (before: 0.837; seeds 2-4 0.746, 0.714, 0.745; 0.836,
+  // Measured 0.893 (seeds 2-4: 0.880, 0.895, 0.881) since the region keeps
+  // the background features it saw moving with the camera down-weighted
+  // while they stay near it (before: 0.861; 0.772, 0.890, 0.791: the curb
+  // behind the walker took over its box where the walker turned back).
+  // Earlier, the region turning with the camera's roll (before that: 0.837; seeds 2-4 0.746, 0.714, 0.745; 0.836,
   // 0.750, 0.684, 0.711 with its own corners' LK on 3 pyramid levels): the region tracks 6
   // corners of its own inside the small box (region_features), which the
   // motion analysis's uniform grid does not give it. Without them 0.475
   // (0.484, 0.522, 0.596), and 0.101 on motion data alone (the target gets
   // no features, turns featureless and rides the camera motion). Floor 0.05
-  // under. Goal 0.85, reached on seeds 1 and 3; 24 own features reach it on all (next test).
-  EXPECT_GE(iou, 0.81);
+  // under. Goal 0.85, reached on seeds 1-4.
+  EXPECT_GE(iou, 0.84);
 }
 
 // The same with each region tracking corners of its own (region_features):
@@ -196,11 +199,11 @@ TEST(RegionFailureClass, SmallTargetAt720pWithOwnFeatures) {
   const double iou = t.meanIou(0, static_cast<int>(t.truth.size()), &n);
   std::printf("region_small, own features: mean IoU %.3f over %d frames (goal %.2f)\n", iou, n, kGoal);
   EXPECT_GT(n, 200);
-  // Measured 0.888 (seeds 2-4: 0.852, 0.895, 0.888), against 0.836 with the
-  // default 6. Not the default: on the real sequences 12 cost Human3 0.035
+  // Measured 0.909 (seeds 2-4: 0.909, 0.927, 0.909; before the background
+  // memory 0.900: 0.863, 0.906, 0.899), against 0.893 with the default 6. Not the default: on the real sequences 12 cost Human3 0.035
   // success AUC (corners on the curb behind the walker's legs), 20 more
   // (docs/benchmarks.md). Floor 0.05 under.
-  EXPECT_GE(iou, 0.83);
+  EXPECT_GE(iou, 0.85);
 }
 
 // 2. A target that moves with the camera (a card riding with it, shaking a
@@ -213,9 +216,10 @@ TEST(RegionFailureClass, TargetMovingWithTheCamera) {
   std::printf("region_follow: given at frame %d: mean IoU %.3f over %d frames (goal %.2f)\n",
               t.start, iou, n, kGoal);
   EXPECT_GT(n, 200);
-  // Measured 0.923 (seeds 2, 3: 0.932, 0.939), drifting slowly (IoU 0.98 at
+  // Measured 0.940 (seeds 2-4: 0.928, 0.949, 0.873; before the background
+  // memory 0.923: 0.932, 0.939, 0.880), drifting slowly (IoU 0.98 at
   // 0.7 s, 0.89 at 7 s). Goal 0.85.
-  EXPECT_GE(iou, 0.87);
+  EXPECT_GE(iou, 0.89);
 }
 
 // 3. A static wall patch that a moving card partly covers at the init frame
@@ -256,8 +260,9 @@ TEST(RegionFailureClass, GivenMidSequenceBothWays) {
       t.start, backward, nb, forward, nf, kGoal);
   EXPECT_GT(nb, 100);
   EXPECT_GT(nf, 100);
-  // Measured backward 0.815, forward 0.804 (seeds 2-4: 0.816 / 0.807,
-  // 0.812 / 0.834, 0.811 / 0.707). Before regions turned: 0.832 / 0.813
+  // Measured backward 0.817, forward 0.796 (seeds 2-4: 0.823 / 0.802,
+  // 0.801 / 0.836, 0.813 / 0.708); before the background memory 0.815 /
+  // 0.804 (0.816 / 0.807, 0.812 / 0.834, 0.811 / 0.707). Before regions turned: 0.832 / 0.813
   // (0.827 / 0.810, 0.828 / 0.840, 0.826 / 0.716): the card rolls +-15 deg
   // on its own, against the camera's roll, and its region turns with the
   // camera's (the card's own turn shows only to its look, which its tilt
@@ -300,8 +305,9 @@ TEST(RegionFailureClass, HiddenFor2sThenBack) {
   EXPECT_NEAR((hidden_to - hidden_from) / fps, 2.0, 0.2);
   EXPECT_GT(nb, 30);
   EXPECT_GT(na, 30);
-  // Measured before 0.838, after 0.846 (seeds 2-4: 0.886 / 0.866, 0.872 /
-  // 0.883, 0.882 / 0.843; after 0.841 (0.864, 0.864, 0.831) before the lost
+  // Measured before 0.847, after 0.864 (seeds 2-4: 0.887 / 0.821, 0.877 /
+  // 0.906, 0.886 / 0.853); before the background memory 0.838 / 0.846
+  // (0.886 / 0.866, 0.872 / 0.883, 0.882 / 0.843; after 0.841 (0.864, 0.864, 0.831) before the lost
   // searches ran coarse to fine), with regions turning (before: 0.837 / 0.862;
   // 0.879 / 0.887, 0.859 / 0.863, 0.887 / 0.882): found again a few frames
   // later at the turn it had when lost, carried on by the camera's. The
@@ -313,7 +319,7 @@ TEST(RegionFailureClass, HiddenFor2sThenBack) {
   // placement and a wider scale range it was found 20 frames later, or never
   // (after 0.743; seeds 2-4: 0.000, 0.504, 0.140). Floors 0.05 under. Goal
   // 0.85 each.
-  EXPECT_GE(before, 0.78);
+  EXPECT_GE(before, 0.80);
   EXPECT_GE(again, 0.81);
 }
 
@@ -348,8 +354,10 @@ TEST(RegionFailureClass, TargetAmong99OtherRegions) {
     const double again = t.meanIou(back + static_cast<int>(std::lround(0.5 * t.scene->options().fps)), frames, &n);
     std::printf("region_hidden among 99 other regions: mean IoU from 0.5 s after it is back %.3f over %d frames\n",
                 again, n);
-    // Measured 0.788 (seeds 2-4: 0.930, 0.871, 0.809; alone 0.846, 0.866,
-    // 0.883, 0.843): found later than alone on seeds 1 and 4. While a region
+    // Measured 0.842 (seeds 2-4: 0.804, 0.932, 0.804; alone 0.864, 0.821,
+    // 0.906, 0.853); 0.796 (0.924, 0.867, 0.805) before the background
+    // memory, 0.788 (0.930, 0.871, 0.809) before live = offline with many
+    // regions: found later than alone on seeds 1, 2 and 4. While a region
     // in doubt took a look on every frame: 0.753 (0.887, 0.572, 0.864). With
     // its patience before `lost` read as 20 checks rather than 20 frames, it
     // waited 13 times as long before searching (0.479). Before a
@@ -358,7 +366,7 @@ TEST(RegionFailureClass, TargetAmong99OtherRegions) {
     // rode the panel (0.561); with the searches around its last place also
     // on turns only after the first 10 frames lost, never found (0.000).
     // Floor 0.05 under.
-    EXPECT_GE(again, 0.73);
+    EXPECT_GE(again, 0.79);
   }
 }
 

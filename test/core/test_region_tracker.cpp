@@ -9,6 +9,8 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
+#include <cstdio>
 #include <functional>
 #include <random>
 
@@ -129,6 +131,40 @@ TEST(RegionTracker, OcclusionByAnotherCardDoesNotDragTheRegion) {
   }
   EXPECT_GT(sum / 75, 0.8);
   EXPECT_GT(iou(tr.states.back().extent(), w.box(0, 74)), 0.75) << "not recovered after the occluder passed";
+}
+
+// A card swinging to and fro in front of a panning wall, its box drawn with
+// a margin of wall around it (as round a turned card, or by a hurried hand).
+// Each time the card turns back it moves with the wall for a few frames, and
+// the wall's features in the margin fit it as well as its own: they must not
+// become its support and pull it back with the wall.
+TEST(RegionTracker, SwingingCardIsNotPulledBackByTheWallInItsBox) {
+  World w = makeWorld();
+  Object card;
+  card.points = randomPoints(24, 100, 80, 9, true);
+  card.half_size = {50, 40};
+  card.centre = [](int k) { return Eigen::Vector2d(330 + 60 * std::sin(2 * M_PI * k / 40), 250); };
+  card.scale = [](int) { return 1.0; };
+  w.objects.push_back(card);
+  const int n = 120;  // three swings
+  const auto md = w.motionData(n);
+  const cv::Rect2d b = w.box(0, 0);
+  const cv::Rect2d drawn(b.x - 0.3 * b.width, b.y - 0.3 * b.height, 1.6 * b.width, 1.6 * b.height);
+  const Track tr = trackForward(md, drawn, 0);
+  double sum = 0, worst = 0;
+  for (int k = 1; k < n; ++k) {
+    const cv::Rect2d& s = tr.states[k].extent();
+    const cv::Rect2d t = w.box(0, k);
+    const double e = std::hypot(s.x + s.width / 2 - (t.x + t.width / 2), s.y + s.height / 2 - (t.y + t.height / 2));
+    EXPECT_EQ(tr.states[k].status, RegionStatus::kTracked) << "frame " << k;
+    sum += e;
+    worst = std::max(worst, e);
+  }
+  std::printf("swinging card, box drawn 1.6x: centre error mean %.2f px, worst %.2f px\n", sum / (n - 1), worst);
+  // Measured 1.28 px mean (1.53 worst). Without the background memory the
+  // wall took the box: 24.4 px mean, 127 px worst. 3 px leaves room for the
+  // synthetic noise and the drawn box's own centre.
+  EXPECT_LT(sum / (n - 1), 3.0);
 }
 
 // Frames dropped upstream (a loaded graph): the steps span 2 to 6 frames.

@@ -377,6 +377,7 @@ RegionState RegionTracker::stepMotion(const RegionState& state, const MotionData
     }
     if (contains(state.inliers, id)) v.prior *= o.inlier_boost;
     if (contains(state.outliers, id)) v.prior *= o.outlier_cut;
+    if (contains(state.background, id)) v.prior *= o.outlier_cut;
     v.weight = v.prior;
     vecs.push_back(v);
   };
@@ -542,6 +543,24 @@ RegionState RegionTracker::stepMotion(const RegionState& state, const MotionData
 
   std::sort(inliers.begin(), inliers.end());
   std::sort(outliers.begin(), outliers.end());
+  // Background seen as such: features near it that moved with the camera
+  // while the region clearly moved on its own (by more than twice
+  // inlier_error against the camera). They keep their low prior (as an
+  // outlier's) while they stay near it, also after the region slows down:
+  // a card turning back moves with the wall for a few frames, and the wall
+  // at the edges of its box would otherwise become its support and pull it
+  // back with the wall. (Released as they fit it again, it lost a target
+  // that came back from behind a panel.)
+  {
+    const bool distinct = (fitted_shift - camera_shift).norm() > 2 * o.inlier_error;
+    std::vector<uint32_t> background;
+    for (const Vec& v : vecs)
+      if (contains(state.background, v.id) ||
+          (distinct && v.error >= thr && (v.dst - v.src_cam).norm() < o.inlier_error))
+        background.push_back(v.id);
+    std::sort(background.begin(), background.end());
+    next.background = std::move(background);
+  }
   next.box = moveBox(camera_box, model);
   // Without a scale of its own (a translation fit), the region takes the
   // camera's zoom only as far as its inliers are background (the motion

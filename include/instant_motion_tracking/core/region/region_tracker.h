@@ -4,8 +4,10 @@
 // vectors of the features inside it (dilated) by IRLS with weights
 // w_i = prior_i / error_i: the prior favours the features that supported the
 // region last frame (its implicit appearance, kept as feature IDs) and those
-// near its centre; the error is the feature's residual against the current
-// fit.
+// near its centre, and disfavours those it has seen moving with the camera
+// while it moved on its own (the background at the edges of its box, kept
+// as feature IDs while they stay near it); the error is the feature's
+// residual against the current fit.
 //
 // Own features (when the frames' images are given): each region also tracks
 // up to `region_features` corners of its own, found inside its box and
@@ -83,6 +85,7 @@ struct RegionState {
   double support = 0;              // reference inlier count (slowly decaying maximum)
   std::vector<uint32_t> inliers;   // feature IDs that support the region (sorted)
   std::vector<uint32_t> outliers;  // feature IDs inside it that move differently (sorted)
+  std::vector<uint32_t> background;  // feature IDs near it seen moving with the camera while it moved on its own (sorted)
   cv::Point2d inlier_centroid;     // px
   cv::Size2d inlier_extent;        // px; 3.3 standard deviations of the inliers in x and y (0 without inliers)
   int coast_frames = 0;            // consecutive frames predicted without support

@@ -376,8 +376,9 @@ RegionState RegionTracker::stepMotion(const RegionState& state, const MotionData
       v.prior *= floor + (1 - floor) * std::exp(-m);
     }
     if (contains(state.inliers, id)) v.prior *= o.inlier_boost;
-    if (contains(state.outliers, id)) v.prior *= o.outlier_cut;
-    if (contains(state.background, id)) v.prior *= o.outlier_cut;
+    // An outlier last frame, or background seen as such (below): the cut
+    // once, not twice for both.
+    if (contains(state.outliers, id) || contains(state.background, id)) v.prior *= o.outlier_cut;
     v.weight = v.prior;
     vecs.push_back(v);
   };
@@ -552,7 +553,11 @@ RegionState RegionTracker::stepMotion(const RegionState& state, const MotionData
   // back with the wall. (Released as they fit it again, it lost a target
   // that came back from behind a panel.)
   {
-    const bool distinct = (fitted_shift - camera_shift).norm() > 2 * o.inlier_error;
+    // Not on its first step (no motion of its own measured yet, and nothing
+    // to tell a wrong fit by), nor without a camera model (then "with the
+    // camera" would only mean "still in the image").
+    const bool distinct =
+        camera_valid && state.support > 0 && (fitted_shift - camera_shift).norm() > 2 * o.inlier_error;
     std::vector<uint32_t> background;
     for (const Vec& v : vecs)
       if (contains(state.background, v.id) ||

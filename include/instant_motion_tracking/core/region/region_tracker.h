@@ -38,8 +38,8 @@
 //
 // A step works in either time direction: forward (frame k-1 -> k) and
 // backward (k -> k-1) use the same fit on reversed correspondences, which is
-// what lets the cache (region_cache.h) track regions added in the past and
-// seek to any cached stamp.
+// what lets the region manager (region_manager.h, over motion_cache.h) track
+// regions added in the past and seek to any cached stamp.
 //
 // Usage:
 //   imt::RegionTracker tracker(options, image_size);

@@ -61,7 +61,9 @@ struct RegionTrackerOptions {
     v("inlier_error", inlier_error,
       "px; residual below which a feature supports the region (plus 10% of its motion)");
     v("inlier_boost", inlier_boost, "prior multiplier for features that were inliers last frame");
-    v("outlier_cut", outlier_cut, "prior multiplier for features that were outliers last frame");
+    v("outlier_cut", outlier_cut,
+      "prior multiplier for features that were outliers last frame, or that the region saw moving with the camera "
+      "while it moved on its own");
     v("min_features", min_features,
       "fewer usable features: the region moves with the camera (featureless)");
     v("min_inliers_scale", min_inliers_scale, "inliers needed to estimate a scale change");

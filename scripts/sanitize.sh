@@ -36,14 +36,23 @@ export ASAN_OPTIONS=${ASAN_OPTIONS:-detect_leaks=1:abort_on_error=0:halt_on_erro
 export UBSAN_OPTIONS=${UBSAN_OPTIONS:-halt_on_error=1:print_stacktrace=1}
 bin="$IMT_BUILD_DIR/devel/lib/instant_motion_tracking"
 status=0
-for t in test_io test_core; do  # (test_io has none of the slow ones)
-  imt_log "running $t under ASan/UBSan (filter: $filter)"
-  if ! "$bin/$t" --gtest_filter="$filter" >"$IMT_BUILD_DIR/$t.log" 2>&1; then
-    status=1
-    imt_log "$t failed under the sanitizers:"
-    grep -E -A30 "ERROR: AddressSanitizer|ERROR: LeakSanitizer|runtime error|\[  FAILED  \]" "$IMT_BUILD_DIR/$t.log" | head -80 >&2 || tail -40 "$IMT_BUILD_DIR/$t.log" >&2
-  else
-    imt_log "$t clean: $(grep -E '^\[  PASSED  \]' "$IMT_BUILD_DIR/$t.log" || echo '?')"
+# run_sanitized BINARY LOG [gtest shard index]: one run, its verdict logged.
+# test_core's tests run in two shards at once (one per core: they are
+# single-threaded, and this stage is on the critical path of scripts/test.sh).
+run_sanitized() {
+  local t=$1 log=$2
+  if [ $# -gt 2 ]; then export GTEST_TOTAL_SHARDS=2 GTEST_SHARD_INDEX=$3; fi
+  if ! "$bin/$t" --gtest_filter="$filter" >"$log" 2>&1; then
+    imt_log "$t failed under the sanitizers (${log##*/}):"
+    grep -E -A30 "ERROR: AddressSanitizer|ERROR: LeakSanitizer|runtime error|\[  FAILED  \]" "$log" | head -80 >&2 || tail -40 "$log" >&2
+    return 1
   fi
-done
+  imt_log "$t clean (${log##*/}): $(grep -E '^\[  PASSED  \]' "$log" || echo '?')"
+}
+imt_log "running test_io, then test_core in two shards, under ASan/UBSan (filter: $filter)"
+run_sanitized test_io "$IMT_BUILD_DIR/test_io.log" || status=1
+run_sanitized test_core "$IMT_BUILD_DIR/test_core.0.log" 0 &
+shard0=$!
+run_sanitized test_core "$IMT_BUILD_DIR/test_core.1.log" 1 || status=1
+wait "$shard0" || status=1
 exit $status

@@ -4,6 +4,7 @@
 
 #include "option_checker.h"
 #include "region_features.h"
+#include "region_fit.h"
 
 #include <algorithm>
 #include <cmath>
@@ -48,14 +49,7 @@ std::vector<RegionState> RegionManager::update(const MotionData& md, const cv::M
   return out;
 }
 
-namespace {
-
-Eigen::Vector2d applyH(const Eigen::Matrix3d& H, double x, double y) {
-  const Eigen::Vector3d p = H * Eigen::Vector3d(x, y, 1);
-  return p.head<2>() / p.z();
-}
-
-}  // namespace
+using region_fit::applyH;
 
 const MotionData& RegionManager::frame(uint64_t seq, MotionData* scratch) const {
   const MotionData& md = cache_.at(seq);
@@ -71,8 +65,8 @@ const MotionData& RegionManager::frame(uint64_t seq, MotionData* scratch) const 
   std::vector<float> rx, ry;
   for (FeatureMotion& f : scratch->features) {
     if (f.age == 0) continue;  // new: no motion yet
-    const Eigen::Vector2d prev = applyH(H_old_inv, f.x - f.dx, f.y - f.dy);
-    const Eigen::Vector2d predicted = applyH(H, prev.x(), prev.y());
+    const Eigen::Vector2d prev = applyH(H_old_inv, Eigen::Vector2d(f.x - f.dx, f.y - f.dy));
+    const Eigen::Vector2d predicted = applyH(H, prev);
     f.dx = static_cast<float>(f.x - predicted.x());
     f.dy = static_cast<float>(f.y - predicted.y());
     rx.push_back(f.dx);

@@ -1,0 +1,136 @@
+// The region tracker's motion fit (private to it): the motion vectors of a
+// step, the local model fitted to them (translation, + scale, similarity) by
+// weighted least squares, and what the camera's homography does to a box.
+#pragma once
+
+#include "region_geometry.h"
+
+#include <Eigen/Dense>
+#include <opencv2/core.hpp>
+
+#include <cmath>
+#include <cstdint>
+#include <vector>
+
+namespace imt {
+namespace region_fit {
+
+using region_geometry::boxAt;
+
+// One motion vector in the tracking direction: src in the state's frame, dst
+// in the frame being tracked into.
+struct Vec {
+  uint32_t id = 0;
+  Eigen::Vector2d src, dst;
+  Eigen::Vector2d src_cam;  // src moved by the camera motion: the fit explains dst - src_cam
+  double prior = 1, weight = 1, error = 0;
+  double bg = -1;  // the motion analysis's background weight (-1: a region's own feature)
+  bool in_box = false;
+};
+
+// dst = c + t + A (src - c), A = [a -b; b a]; a = 1, b = 0 for translation.
+struct LocalModel {
+  Eigen::Vector2d c = Eigen::Vector2d::Zero();
+  Eigen::Vector2d t = Eigen::Vector2d::Zero();
+  double a = 1, b = 0;
+  int dof = 2;
+  Eigen::Vector2d apply(const Eigen::Vector2d& p) const {
+    const Eigen::Vector2d q = p - c;
+    return c + t + Eigen::Vector2d(a * q.x() - b * q.y(), b * q.x() + a * q.y());
+  }
+  double scale() const { return std::hypot(a, b); }
+  double rotation() const { return std::atan2(b, a); }
+};
+
+// Weighted least squares for a model of `dof` 2 (translation), 3 (+scale) or
+// 4 (similarity). False when degenerate.
+inline bool fitModel(const std::vector<Vec>& v, const Eigen::Vector2d& c, int dof, LocalModel* m) {
+  Eigen::Matrix4d AtA = Eigen::Matrix4d::Zero();
+  Eigen::Vector4d Atb = Eigen::Vector4d::Zero();
+  double wsum = 0;
+  for (const Vec& e : v) {
+    if (e.weight <= 0) continue;
+    const Eigen::Vector2d q = e.src_cam - c, r = e.dst - c;
+    // unknowns: tx, ty, a, b
+    Eigen::Matrix<double, 2, 4> J;
+    J << 1, 0, q.x(), -q.y(), 0, 1, q.y(), q.x();
+    AtA += e.weight * J.transpose() * J;
+    Atb += e.weight * J.transpose() * r;
+    wsum += e.weight;
+  }
+  if (wsum <= 0) return false;
+  m->c = c;
+  m->dof = dof;
+  if (dof == 2) {
+    // translation only: r - q = t
+    Eigen::Vector2d t = Eigen::Vector2d::Zero();
+    for (const Vec& e : v)
+      if (e.weight > 0) t += e.weight * (e.dst - e.src_cam);
+    m->t = t / wsum;
+    m->a = 1;
+    m->b = 0;
+    return true;
+  }
+  if (dof == 3) {
+    const Eigen::Matrix3d M = AtA.topLeftCorner<3, 3>();
+    const Eigen::Vector3d x = M.ldlt().solve(Atb.head<3>());
+    if (!x.allFinite() || std::abs(M.determinant()) < 1e-9) return false;
+    m->t = x.head<2>();
+    m->a = x(2);
+    m->b = 0;
+    return true;
+  }
+  const Eigen::Vector4d x = AtA.ldlt().solve(Atb);
+  if (!x.allFinite() || std::abs(AtA.determinant()) < 1e-9) return false;
+  m->t = x.head<2>();
+  m->a = x(2);
+  m->b = x(3);
+  return true;
+}
+
+inline Eigen::Vector2d applyH(const Eigen::Matrix3d& H, const Eigen::Vector2d& p) {
+  const Eigen::Vector3d q = H * p.homogeneous();
+  return q.hnormalized();
+}
+
+// What a homography does to a small patch about the centre of `box`: where
+// the centre goes, and where the patch's axes (of half the box's shorter
+// side, `h`) go from there.
+struct LocalMap {
+  Eigen::Vector2d c2, dx, dy;
+  double h;
+  LocalMap(const cv::Rect2d& box, const Eigen::Matrix3d& H) {
+    const Eigen::Vector2d c(box.x + box.width / 2, box.y + box.height / 2);
+    c2 = applyH(H, c);
+    h = 0.5 * std::max(1.0, std::min(box.width, box.height));
+    dx = applyH(H, c + Eigen::Vector2d(h, 0)) - c2;
+    dy = applyH(H, c + Eigen::Vector2d(0, h)) - c2;
+  }
+  // The local area change's square root (1 when degenerate).
+  double scale() const {
+    const double s = std::sqrt(std::abs(dx.x() * dy.y() - dx.y() * dy.x())) / h;
+    return std::isfinite(s) && s > 0 ? s : 1.0;
+  }
+  // The rotation part (rad, x toward y; 0 when degenerate).
+  double turn() const {
+    const double t = std::atan2(dx.y() - dy.x(), dx.x() + dy.y());
+    return std::isfinite(t) ? t : 0.0;
+  }
+};
+
+// Box moved by a homography: its centre is mapped, its size scaled by the
+// local area change of H at the centre.
+inline cv::Rect2d moveBox(const cv::Rect2d& box, const Eigen::Matrix3d& H) {
+  const LocalMap m(box, H);
+  return boxAt(m.c2, m.scale() * box.width, m.scale() * box.height);
+}
+
+inline cv::Rect2d moveBox(const cv::Rect2d& box, const LocalModel& m) {
+  const Eigen::Vector2d c(box.x + box.width / 2, box.y + box.height / 2);
+  const Eigen::Vector2d c2 = m.apply(c);
+  const double s = m.scale();
+  return boxAt(c2, s * box.width, s * box.height);
+}
+
+}  // namespace region_fit
+}  // namespace imt

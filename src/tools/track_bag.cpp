@@ -39,26 +39,23 @@
 
 namespace fs = std::filesystem;
 using imt::track_bag::Args;
+using imt::track_bag::DropInfo;
+using imt::track_bag::Drops;
 using imt::track_bag::Failure;
 using imt::track_bag::defaultConfigPath;
 using imt::track_bag::fail;
+using imt::track_bag::inOrder;
 using imt::track_bag::kUsage;
+using imt::track_bag::noteDrop;
+using imt::track_bag::Notes;
 using imt::track_bag::libraryLog;
 using imt::track_bag::parseArgs;
 using imt::track_bag::Progress;
 using imt::track_bag::StderrCapture;
 using imt::track_bag::Stopwatch;
+using imt::track_bag::total;
 
 namespace {
-
-std::string fixed(double v, int decimals) { return imt::formatFixed(v, decimals); }
-
-// Messages printed once each after a successful run.
-struct Notes {
-  std::vector<std::string> lines;
-  void warn(const std::string& s) { lines.push_back("warning: " + s); }
-  void note(const std::string& s) { lines.push_back("note: " + s); }
-};
 
 // One run of the tool: inputs, outputs, the frame loop and the summary. Every
 // step fails through fail(); the frame callbacks return false with a message.
@@ -91,13 +88,6 @@ class TrackBagRun {
     int count = 0;
     int first_frame = 0;
     double first_stamp = 0;
-  };
-  // Messages dropped for one cause (the reason with its numbers left out):
-  // how many, and the first one's reason and place.
-  struct DropInfo {
-    int count = 0;
-    size_t order = 0;  // causes are reported in the order they first came
-    std::string first_reason, first_where;
   };
 
   // Configuration, INIT.yaml (cheap to check, so first), the bag with every
@@ -222,27 +212,9 @@ class TrackBagRun {
       session_->setCameraInfo(k);
       return;
     }
-    noteDrop(&info_refused_, why, "stamp " + fixed(m.header.stamp.toSec(), 6));
+    noteDrop(&info_refused_, why, "stamp " + imt::formatFixed(m.header.stamp.toSec(), 6));
   }
 
-  static void noteDrop(std::map<std::string, DropInfo>* drops, const std::string& reason, const std::string& where) {
-    DropInfo& d = (*drops)[imt::track_bag::causeOf(reason)];
-    if (d.count++ == 0) {
-      d.order = drops->size() - 1;
-      d.first_reason = reason;
-      d.first_where = where;
-    }
-  }
-  static int total(const std::map<std::string, DropInfo>& drops) {
-    int n = 0;
-    for (const auto& [cause, d] : drops) n += d.count;
-    return n;
-  }
-  static std::vector<const DropInfo*> inOrder(const std::map<std::string, DropInfo>& drops) {
-    std::vector<const DropInfo*> v(drops.size());
-    for (const auto& [cause, d] : drops) v[d.order] = &d;
-    return v;
-  }
   int malformedCount() const { return total(malformed_); }
 
   void onImu(const sensor_msgs::Imu& m) {
@@ -258,7 +230,7 @@ class TrackBagRun {
 
   // "frame 3 (stamp 1000.100000) on /cam/image_raw"
   std::string whereIs(const imt::BagImage& im) const {
-    return "frame " + std::to_string(im.index) + " (stamp " + fixed(im.header().stamp.toSec(), 6) + ") on " +
+    return "frame " + std::to_string(im.index) + " (stamp " + imt::formatFixed(im.header().stamp.toSec(), 6) + ") on " +
            input_.imageTopic();
   }
 
@@ -464,13 +436,13 @@ class TrackBagRun {
     for (const auto& [reason, ri] : resets_)
       notes_.warn("motion analysis reset " + std::to_string(ri.count) + " time(s): " + reason +
                   " (first at frame " + std::to_string(ri.first_frame) + ", stamp " +
-                  fixed(ri.first_stamp, 6) + ")");
+                  imt::formatFixed(ri.first_stamp, 6) + ")");
     if (decoder_warnings_)
       notes_.warn("the image decoder complained about " + std::to_string(decoder_warnings_) +
                   " compressed frame(s) (first: " + first_decoder_warning_ + ")");
     if (imu_dropped_)
       notes_.warn("dropped " + std::to_string(imu_dropped_) + " IMU sample(s) with NaN/Inf values "
-                  "(first at stamp " + fixed(imu_first_dropped_, 6) + ")");
+                  "(first at stamp " + imt::formatFixed(imu_first_dropped_, 6) + ")");
     if (const int gaps = imu_outcomes_[imt::ImuInput::kGap])
       notes_.warn("the IMU stream has " + std::to_string(gaps) + " gap(s) longer than imu.max_gap_seconds " +
                   "(no anchor orientation inside them; roll and pitch re-levelled after each)");
@@ -530,43 +502,11 @@ class TrackBagRun {
     d["first_stamp"] = input_.frameStamps().front();
     d["last_stamp"] = input_.frameStamps().back();
     d["stamps_pass_seconds"] = input_.stampsPassSeconds();
-    const imt::CameraModel k = session_->camera();
-    d["intrinsics"] = {{"source", session_->cameraSource()}, {"fx", k.fx}, {"fy", k.fy}, {"cx", k.cx},
-                       {"cy", k.cy}, {"width", k.width}, {"height", k.height}};
     d["imu_samples"] = imu_used_;
     d["imu_dropped"] = imu_dropped_;
     d["image_frame"] = input_.imageFrameId();
     d["imu_frame"] = orNull(imu_frame_);
-    d["R_cam_imu"] = nullptr;
-    d["R_cam_imu_source"] = imt::AnchorManager::rotationSourceName(session_->rotationSource());
-    if (const auto q = session_->rotationCamImu()) {
-      const Eigen::Matrix3d R = q->toRotationMatrix();
-      d["R_cam_imu"] = {{R(0, 0), R(0, 1), R(0, 2)}, {R(1, 0), R(1, 1), R(1, 2)},
-                        {R(2, 0), R(2, 1), R(2, 2)}};
-    }
-    // The video's fit from the features' epipolar lines, when one was made
-    // (no rotation known yet, or the turns' to check: a camera that travels as it turns).
-    d["R_cam_imu_epipolar"] = nullptr;
-    if (const auto& f = session_->epipolarRotationFit())
-      d["R_cam_imu_epipolar"] = {{"sharp", f->sharp}, {"halves_deg", f->spread_deg}, {"inliers", f->inlier_fraction},
-                                 {"frames", f->frames}, {"pairs", f->pairs}};
-    // The camera-IMU time offset in use, and what the video showed of it.
-    d["imu_time_offset"] = session_->timeOffset();
-    d["imu_time_offset_source"] = imt::AnchorManager::offsetSourceName(session_->timeOffsetSource());
-    d["imu_time_offset_video"] = nullptr;
-    if (const auto& f = session_->timeOffsetFit())
-      d["imu_time_offset_video"] = {{"offset", f->offset}, {"found", f->found}, {"correlation", f->correlation},
-                                    {"correlation_at_zero", f->at_zero}, {"turns", f->turns}};
-    // The gyro bias in use (rad/s, IMU frame), its source, and the video's estimate.
-    const Eigen::Vector3d& bias = session_->gyroBias();
-    d["gyro_bias"] = {bias.x(), bias.y(), bias.z()};
-    d["gyro_bias_source"] = imt::ImuOrientation::biasSourceName(session_->gyroBiasSource());
-    d["gyro_bias_video"] = nullptr;
-    if (const auto& e = session_->videoGyroBias())
-      d["gyro_bias_video"] = {{"bias", {e->bias.x(), e->bias.y(), e->bias.z()}},
-                              {"sigma", {e->sigma.x(), e->sigma.y(), e->sigma.z()}},
-                              {"frames", e->frames}, {"lateness", e->lateness},
-                              {"lateness_sigma", e->lateness_sigma}};
+    imt::addSessionDetails(*session_, &d);
     d["frames_dropped"] = {{"duplicate_stamp", session_->timeDrops().duplicate},
                            {"stamp_behind", session_->timeDrops().behind},
                            {"malformed_image", malformedCount()}};
@@ -616,7 +556,7 @@ class TrackBagRun {
   std::map<std::string, double> stage_seconds_;
   std::map<std::string, int> model_counts_;
   std::map<std::string, ResetInfo> resets_;
-  std::map<std::string, DropInfo> malformed_, info_refused_;  // by cause
+  Drops malformed_, info_refused_;
   std::map<int, std::string> dropped_at_;  // frame index -> why that frame is not in the run
   std::map<imt::ImuInput, int> imu_outcomes_;
   int imu_used_ = 0, imu_dropped_ = 0;

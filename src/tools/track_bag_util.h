@@ -1,6 +1,6 @@
-// track_bag's terminal helpers: a progress bar, a stopwatch, and the capture
+// track_bag's terminal helpers: a progress bar, a stopwatch, the capture
 // of what libraries print (stderr, console_bridge), so that the tool keeps its
-// promise of one error line. Private to src/tools/track_bag.cpp.
+// promise of one error line, and the count of dropped messages by cause. Private to src/tools/track_bag.cpp.
 #pragma once
 
 #include "log_cause.h"
@@ -12,6 +12,7 @@
 
 #include <chrono>
 #include <cstdio>
+#include <map>
 #include <string>
 #include <vector>
 
@@ -138,6 +139,42 @@ class LibraryLog : public console_bridge::OutputHandler {
 LibraryLog& libraryLog() {
   static LibraryLog log;
   return log;
+}
+
+// Messages printed once each after a successful run.
+struct Notes {
+  std::vector<std::string> lines;
+  void warn(const std::string& s) { lines.push_back("warning: " + s); }
+  void note(const std::string& s) { lines.push_back("note: " + s); }
+};
+
+// Messages dropped for one cause (the reason with its numbers left out):
+// how many, and the first one's reason and place.
+struct DropInfo {
+  int count = 0;
+  size_t order = 0;  // causes are reported in the order they first came
+  std::string first_reason, first_where;
+};
+// Drops by cause.
+using Drops = std::map<std::string, DropInfo>;
+
+inline void noteDrop(Drops* drops, const std::string& reason, const std::string& where) {
+  DropInfo& d = (*drops)[causeOf(reason)];
+  if (d.count++ == 0) {
+    d.order = drops->size() - 1;
+    d.first_reason = reason;
+    d.first_where = where;
+  }
+}
+inline int total(const Drops& drops) {
+  int n = 0;
+  for (const auto& [cause, d] : drops) n += d.count;
+  return n;
+}
+inline std::vector<const DropInfo*> inOrder(const Drops& drops) {
+  std::vector<const DropInfo*> v(drops.size());
+  for (const auto& [cause, d] : drops) v[d.order] = &d;
+  return v;
 }
 
 }  // namespace imt::track_bag

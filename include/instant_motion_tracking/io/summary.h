@@ -17,6 +17,8 @@
 
 namespace imt {
 
+class TrackingSession;
+
 struct RunSummary {
   int frames = 0;                               // frames processed
   double seconds = 0;                           // wall time of the processing (s)
@@ -27,6 +29,12 @@ struct RunSummary {
   //  "stages": {name: {"seconds", "ms_per_frame"}}, ...details}.
   nlohmann::json toJson() const;
 };
+
+// What the session knows that summary.json reports, added to `details`: the
+// intrinsics and their source; the IMU-to-camera rotation, the camera-IMU
+// time offset and the gyro bias in use, each with its source and what the
+// video showed of it (null when nothing).
+void addSessionDetails(const TrackingSession& session, nlohmann::json* details);
 
 // Writes `j` pretty-printed. False with a message naming the file on failure.
 bool writeJsonFile(const std::string& path, const nlohmann::json& j, std::string* error);

@@ -39,16 +39,16 @@
 
 namespace fs = std::filesystem;
 using imt::track_bag::Args;
+using imt::track_bag::defaultConfigPath;
 using imt::track_bag::DropInfo;
 using imt::track_bag::Drops;
-using imt::track_bag::Failure;
-using imt::track_bag::defaultConfigPath;
 using imt::track_bag::fail;
+using imt::track_bag::Failure;
 using imt::track_bag::inOrder;
 using imt::track_bag::kUsage;
+using imt::track_bag::libraryLog;
 using imt::track_bag::noteDrop;
 using imt::track_bag::Notes;
-using imt::track_bag::libraryLog;
 using imt::track_bag::parseArgs;
 using imt::track_bag::Progress;
 using imt::track_bag::StderrCapture;

@@ -1,6 +1,7 @@
 // track_bag's terminal helpers: a progress bar, a stopwatch, the capture
 // of what libraries print (stderr, console_bridge), so that the tool keeps its
-// promise of one error line, and the count of dropped messages by cause. Private to src/tools/track_bag.cpp.
+// promise of one error line, the notes printed after a run, and the count of
+// dropped messages by cause. Private to src/tools/track_bag.cpp.
 #pragma once
 
 #include "log_cause.h"

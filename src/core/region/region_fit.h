@@ -16,6 +16,7 @@ namespace imt {
 namespace region_fit {
 
 using region_geometry::boxAt;
+using region_geometry::centre;
 
 // One motion vector in the tracking direction: src in the state's frame, dst
 // in the frame being tracked into.
@@ -100,7 +101,7 @@ struct LocalMap {
   Eigen::Vector2d c2, dx, dy;
   double h;
   LocalMap(const cv::Rect2d& box, const Eigen::Matrix3d& H) {
-    const Eigen::Vector2d c(box.x + box.width / 2, box.y + box.height / 2);
+    const Eigen::Vector2d c = centre(box);
     c2 = applyH(H, c);
     h = 0.5 * std::max(1.0, std::min(box.width, box.height));
     dx = applyH(H, c + Eigen::Vector2d(h, 0)) - c2;
@@ -126,10 +127,8 @@ inline cv::Rect2d moveBox(const cv::Rect2d& box, const Eigen::Matrix3d& H) {
 }
 
 inline cv::Rect2d moveBox(const cv::Rect2d& box, const LocalModel& m) {
-  const Eigen::Vector2d c(box.x + box.width / 2, box.y + box.height / 2);
-  const Eigen::Vector2d c2 = m.apply(c);
   const double s = m.scale();
-  return boxAt(c2, s * box.width, s * box.height);
+  return boxAt(m.apply(centre(box)), s * box.width, s * box.height);
 }
 
 }  // namespace region_fit

@@ -6,8 +6,8 @@ import sys
 from instant_motion_tracking import msg, srv
 
 SPEC = {
-    msg.MotionData: ["header", "width", "height", "model", "homography", "ids", "x", "y", "dx", "dy",
-                     "background_weight", "foreground", "age"],
+    msg.MotionData: ["header", "width", "height", "analysis_scale", "model", "homography", "ids", "x", "y",
+                     "dx", "dy", "background_weight", "foreground", "age"],
     msg.TrackedRegion: ["id", "x", "y", "width", "height", "status", "confidence"],
     msg.TrackedRegionArray: ["header", "regions"],
     msg.PlanarTarget: ["id", "corners", "pose", "status"],

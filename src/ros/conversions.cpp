@@ -51,6 +51,7 @@ instant_motion_tracking::MotionData toMsg(const MotionData& md, const std_msgs::
   m.header = header;
   m.width = md.width;
   m.height = md.height;
+  m.analysis_scale = md.analysis_scale;
   m.model = static_cast<uint8_t>(md.camera.model);
   for (int r = 0; r < 3; ++r)
     for (int c = 0; c < 3; ++c) m.homography[3 * r + c] = md.camera.H(r, c);
@@ -84,6 +85,7 @@ MotionData fromMsg(const instant_motion_tracking::MotionData& m) {
   md.stamp = m.header.stamp.toSec();
   md.width = static_cast<int>(m.width);
   md.height = static_cast<int>(m.height);
+  md.analysis_scale = std::isfinite(m.analysis_scale) && m.analysis_scale > 0 ? m.analysis_scale : 1.f;
   md.camera.model = m.model <= 3 ? static_cast<MotionModel>(m.model) : MotionModel::kInvalid;
   for (int r = 0; r < 3; ++r)
     for (int c = 0; c < 3; ++c) md.camera.H(r, c) = m.homography[3 * r + c];

@@ -28,9 +28,13 @@ TEST(MotionAnalysisInput, FirstFrameIsInvalidIdentityWithZeroMotion) {
   EXPECT_EQ(md.stamp, 10.0);
   EXPECT_EQ(md.width, 640);
   EXPECT_EQ(md.height, 480);
+  EXPECT_FLOAT_EQ(md.analysis_scale, 2.f);  // 640 px read at analysis_width 320
   EXPECT_EQ(md.camera.model, MotionModel::kInvalid);
   EXPECT_TRUE(md.camera.H.isIdentity());
   EXPECT_EQ(analyzer.lastReset(), "");
+  MotionAnalysisOptions full;
+  full.analysis_width = 0;  // full size
+  EXPECT_FLOAT_EQ(MotionAnalyzer(full).process(texturedFrame(), 10.0).analysis_scale, 1.f);
   // A textured frame fills most of the feature budget at once.
   EXPECT_GE(md.features.size(), 0.8 * MotionAnalysisOptions().max_features);
   EXPECT_LE(md.features.size(), static_cast<size_t>(MotionAnalysisOptions().max_features));

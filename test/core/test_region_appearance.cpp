@@ -240,6 +240,25 @@ TEST(RegionAppearance, LostRegionIsReacquiredNearAndFar) {
             RegionStatus::kLost);
 }
 
+// A region that drifted onto what covered it grew with that before it was
+// lost: it is searched for at the size its look was last confirmed at too,
+// beyond the lost search's scales (1.2x) of the box it drifted to.
+TEST(RegionAppearance, LostRegionIsSearchedAtItsLastConfirmedSize) {
+  const cv::Mat img = texture();
+  const cv::Rect2d box(100, 80, 60, 40);
+  RegionTracker tracker(RegionTrackerOptions(), kSize);
+  RegionState lost = placed(tracker, img, box);
+  ASSERT_EQ(lost.look_size, box.size());
+  lost.box = cv::Rect2d(85, 70, 90, 60);  // the same centre, 1.5x
+  lost.status = RegionStatus::kLost;
+  const RegionState back = tracker.step(lost, emptyMotion(0.033), Direction::kForward, 0, shifted(img, 30, 20));
+  EXPECT_EQ(back.status, RegionStatus::kTracked) << back.reason;
+  EXPECT_LT(centreError(back.box, box + cv::Point2d(30, 20)), 1.5);
+  // Within the 5% of the scales' steps around its look's size.
+  EXPECT_NEAR(back.box.width, box.width, 0.05 * box.width);
+  EXPECT_NEAR(back.box.height, box.height, 0.05 * box.height);
+}
+
 // A region lost for long searches less often (each search is a template
 // match over 5 scales, 2.8 ms on the cards benchmark), but still comes back.
 TEST(RegionAppearance, LongLostRegionSearchesLessOftenButComesBack) {

@@ -16,6 +16,7 @@ TEST(Conversions, MotionDataRoundTrip) {
   md.stamp = 1000.25;
   md.width = 640;
   md.height = 480;
+  md.analysis_scale = 2;
   md.camera.model = MotionModel::kSimilarity;
   md.camera.H << 1.01, -0.02, 3.5, 0.02, 1.01, -2.25, 0, 0, 1;
   md.camera.features = 120;
@@ -38,6 +39,7 @@ TEST(Conversions, MotionDataRoundTrip) {
   const MotionData back = fromMsg(toMsg(md, h));
   EXPECT_NEAR(back.stamp, md.stamp, 1e-9);
   EXPECT_EQ(back.width, 640);
+  EXPECT_FLOAT_EQ(back.analysis_scale, 2);
   EXPECT_EQ(back.camera.model, MotionModel::kSimilarity);
   EXPECT_TRUE(back.camera.H.isApprox(md.camera.H));
   EXPECT_EQ(back.camera.inliers, 100);
@@ -62,7 +64,9 @@ TEST(Conversions, MalformedMotionDataIsSanitised) {
   m.background_weight = {1, 1};  // shorter than the rest
   m.foreground = {0, 0, 0};
   m.age = {1, 1, 1};
+  m.analysis_scale = NAN;
   const MotionData md = fromMsg(m);
+  EXPECT_EQ(md.analysis_scale, 1.f);  // unknown: full resolution
   EXPECT_EQ(md.camera.model, MotionModel::kInvalid);
   EXPECT_TRUE(md.camera.H.isIdentity());
   ASSERT_EQ(md.features.size(), 1u);  // common prefix of 2, minus the NaN one

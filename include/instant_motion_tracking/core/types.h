@@ -51,6 +51,10 @@ struct FeatureMotion {
 struct MotionData {
   double stamp = 0;  // s, the image header stamp
   int width = 0, height = 0;
+  // Image px per px of the resolution the features were tracked at (4 at
+  // analysis_width 320 of a 1280 px image; 1: full resolution): how far a
+  // feature's position and motion may be off, as trackers weigh them.
+  float analysis_scale = 1;
   CameraMotion camera;
   std::vector<FeatureMotion> features;
   // Set by sortByX(): features ordered by x, and the largest |current -

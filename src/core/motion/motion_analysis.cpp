@@ -152,6 +152,7 @@ MotionData MotionAnalyzer::process(const cv::Mat& gray, double stamp) {
   // Analysis pixel (centre at integer x) -> full-resolution position in our
   // convention: pixel i of the analysis frame covers [i, i+1) * scale.
   const float sx = static_cast<float>(gray.cols) / aw, sy = static_cast<float>(gray.rows) / ah;
+  md.analysis_scale = std::max(sx, sy);
   auto toFull = [sx, sy](const cv::Point2f& p) {
     return cv::Point2f((p.x + 0.5f) * sx, (p.y + 0.5f) * sy);
   };

@@ -26,6 +26,13 @@ inline cv::Rect2d withAspect(const cv::Rect2d& b, double aspect) {
   return boxAt(centre(b), k * b.width, b.height / k);
 }
 
+// `b` with the size `size` and the same centre; `b` itself when `size` is
+// empty or not finite.
+inline cv::Rect2d withSize(const cv::Rect2d& b, const cv::Size2d& size) {
+  if (!(size.width > 0 && size.height > 0 && std::isfinite(size.width) && std::isfinite(size.height))) return b;
+  return boxAt(centre(b), size.width, size.height);
+}
+
 // The axis-aligned extent of `box` turned by `angle` (rad) about its centre.
 inline cv::Rect2d turnedExtent(const cv::Rect2d& box, double angle) {
   const double c = std::abs(std::cos(angle)), s = std::abs(std::sin(angle));

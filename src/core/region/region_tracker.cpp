@@ -63,6 +63,7 @@ RegionState RegionState::start(uint32_t id, const cv::Rect2d& box, double stamp)
   s.stamp = stamp;
   s.inlier_centroid = cv::Point2d(box.x + box.width / 2, box.y + box.height / 2);
   s.placed_aspect = box.height > 0 ? box.width / box.height : 0;
+  s.look_size = box.size();
   return s;
 }
 
@@ -274,6 +275,9 @@ RegionState RegionTracker::stepMotion(const RegionState& state, const MotionData
     v.weight = v.prior;
     vecs.push_back(v);
   };
+  // 1 when unknown or nonsense (below 1: finer than the image itself).
+  const double motion_scale =
+      std::isfinite(md.analysis_scale) && md.analysis_scale > 1 ? std::min<double>(md.analysis_scale, 64) : 1.0;
   for (auto fit = crop_begin; fit != crop_end; ++fit) {
     const FeatureMotion& f = *fit;
     if (f.age == 0) continue;  // just detected: no motion measured yet
@@ -282,7 +286,14 @@ RegionState RegionTracker::stepMotion(const RegionState& state, const MotionData
     const size_t before = vecs.size();
     if (dir == Direction::kForward) addVec(f.id, prev, cur);
     else addVec(f.id, cur, prev);
-    if (vecs.size() > before) vecs.back().bg = f.bg_weight;
+    if (vecs.size() == before) continue;
+    Vec& v = vecs.back();
+    v.bg = f.bg_weight;
+    // Measured at the analysis resolution: off by up to a pixel there,
+    // analysis_scale pixels here. The weights are 1 / error, as the robust
+    // fit's are; a region's own features are tracked at full resolution.
+    v.prior /= motion_scale;
+    v.weight = v.prior;
   }
   // The region's own features, tracked from its frame into the next.
   if (!from_image.empty() && !to_image.empty() && !state.own_points.empty()) {

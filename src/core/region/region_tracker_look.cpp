@@ -189,9 +189,11 @@ void RegionTracker::checkAppearance(const RegionState& state, RegionState* next,
         const double tolerance = 0.015 * std::max(next->box.width, next->box.height);
         return first.found && first.score >= o.appearance_lost_score && std::hypot(d.x, d.y) <= tolerance;
       };
-      if (motion_confidence >= 0.75 || firstAgrees())
+      if (motion_confidence >= 0.75 || firstAgrees()) {
         next->appearance.blend(image, next->box, 1 - std::pow(1 - o.appearance_update, state.look_age + 1),
                                next->angle);
+        next->look_size = next->box.size();
+      }
     }
   } else if (score < o.appearance_lost_score) {
     // It looks wrong. Lost after appearance_lost_frames of that while few
@@ -246,21 +248,34 @@ void RegionTracker::reacquire(RegionState* next, const cv::Mat& image) const {
   if (!when.local) return;
   const auto& scales = RegionAppearance::lostScales();
   const double angle = next->angle;  // the last turn it was seen at
-  AppearanceMatch m = next->appearance.matchWide(image, next->box, 1.0, scales, angle);
-  if (when.whole && (!m.found || m.score < o.reacquire_score)) {
-    const bool first = when.k % 2 == 1 && next->first_appearance.valid();
-    // The look at placement, at the aspect it was taken at.
-    const cv::Rect2d placed_box = region_geometry::withAspect(next->box, next->placed_aspect);
-    if (first) {
-      const AppearanceMatch f = next->first_appearance.matchWide(image, placed_box, 1.0, scales, angle);
-      if (f.found && f.score > m.score) m = f;
+  auto search = [&](const cv::Rect2d& box) {
+    AppearanceMatch m = next->appearance.matchWide(image, box, 1.0, scales, angle);
+    if (when.whole && (!m.found || m.score < o.reacquire_score)) {
+      const bool first = when.k % 2 == 1 && next->first_appearance.valid();
+      // The look at placement, at the aspect it was taken at.
+      const cv::Rect2d placed_box = region_geometry::withAspect(box, next->placed_aspect);
+      if (first) {
+        const AppearanceMatch f = next->first_appearance.matchWide(image, placed_box, 1.0, scales, angle);
+        if (f.found && f.score > m.score) m = f;
+      }
+      if (!m.found || m.score < o.reacquire_score) {
+        const AppearanceMatch a = first ? next->first_appearance.matchAnywhere(image, placed_box, scales, angle)
+                                        : next->appearance.matchAnywhere(image, box, scales, angle);
+        if (a.found && a.score > m.score) m = a;
+      }
     }
-    if (!m.found || m.score < o.reacquire_score) {
-      const AppearanceMatch a =
-          first ? next->first_appearance.matchAnywhere(image, placed_box, RegionAppearance::lostScales(), angle)
-                : next->appearance.matchAnywhere(image, next->box, RegionAppearance::lostScales(), angle);
-      if (a.found && a.score > m.score) m = a;
-    }
+    return m;
+  };
+  AppearanceMatch m = search(next->box);
+  // Also at the size its look was last confirmed at, when that is beyond the
+  // scales' reach: a region that drifted onto what covered it may have grown
+  // or shrunk with that before it was lost (the coarse search reads the
+  // frame at the box's own size, so it misses a size 1.2x off).
+  const cv::Rect2d look_box = region_geometry::withSize(next->box, next->look_size);
+  const double off = std::abs(std::log(look_box.area() / std::max(1e-9, next->box.area()))) / 2;
+  if (off > std::log(1.1) && (!m.found || m.score < o.reacquire_score)) {
+    const AppearanceMatch at_look = search(look_box);
+    if (at_look.found && at_look.score > m.score) m = at_look;
   }
   if (!m.found || m.score < o.reacquire_score) return;
   char why[96];

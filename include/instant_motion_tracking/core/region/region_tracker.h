@@ -95,6 +95,8 @@ struct RegionState {
   RegionAppearance first_appearance;  // its look at placement (checks the template's updates)
   double appearance_score = -1;    // NCC of the look at this frame's box (-1: not checked)
   int appearance_misses = 0;       // consecutive checks it did not look like itself
+  cv::Size2d look_size;            // px; its box's size when its look was last confirmed (a lost region is
+                                   // searched at that size, not at the one it may have drifted to)
   int lost_frames = 0;             // frames since it was lost
   int look_wait = 0;               // frames until its look's next turn (appearance_budget); -1: not yet given its turns
   int look_age = 0;                // frames since its look was last checked

@@ -259,6 +259,48 @@ TEST(RegionAppearance, LostRegionIsSearchedAtItsLastConfirmedSize) {
   EXPECT_NEAR(back.box.height, box.height, 0.05 * box.height);
 }
 
+// A target that widens in the image while its height stays (a boat turning
+// broadside): the features' fit has one scale for both sides, and the look
+// takes the box's aspect along. Both a stretch the features cannot see and
+// a rigid target whose aspect must not drift.
+TEST(RegionAppearance, LookTakesTheBoxsAspectAlong) {
+  const cv::Mat img = texture();
+  const cv::Rect2d box(130, 100, 60, 40);
+  const cv::Point2d c(160, 120);
+  RegionTrackerOptions o;
+  o.region_features = 24;  // carried by its own features: the look is strong, the motion not weak
+  RegionTracker tracker(o, kSize);
+  const auto run = [&](double widen) {
+    RegionState s = placed(tracker, img, box);
+    cv::Mat prev = img;
+    double sx = 1;
+    for (int k = 1; k <= 135; ++k) {
+      if (k <= 90) sx *= widen;  // then still for 1.5 s
+      cv::Mat frame;
+      const cv::Mat m = (cv::Mat_<double>(2, 3) << sx, 0, c.x * (1 - sx), 0, 1, 0);
+      cv::warpAffine(img, frame, m, img.size(), cv::INTER_LINEAR, cv::BORDER_REFLECT);
+      MotionData md = emptyMotion(0.033 * k);
+      md.camera.model = MotionModel::kHomography;  // a still camera (identity)
+      s = tracker.step(s, md, Direction::kForward, 0, frame, prev);
+      prev = frame;
+    }
+    EXPECT_EQ(s.status, RegionStatus::kTracked) << s.reason;
+    EXPECT_LT(centreError(s.box, box), 2.0);
+    return std::make_pair(s.box.width / s.box.height, box.width * sx / box.height);
+  };
+  // Widened 0.3% a frame: 1.31x over 90 frames (the aspect from 1.5 to 1.96),
+  // then still. One scale for both sides leaves the box at 1.5 (23% off);
+  // asking the latest look alone left it at 1.55 after the widening (it
+  // learns the stretch as it comes). Measured 1.82 (7% off): the latest look, having learnt the
+  // view at the box's old aspect, pulls back on some tries and breaks the
+  // runs of the look at placement. Bar 10%, a third of the way from there.
+  const auto [wide, wide_truth] = run(1.003);
+  EXPECT_NEAR(wide / wide_truth, 1.0, 0.10) << wide << " against " << wide_truth;
+  // Rigid: its aspect stays within one step of the look's stretch.
+  const auto [rigid, rigid_truth] = run(1.0);
+  EXPECT_NEAR(rigid / rigid_truth, 1.0, 0.02) << rigid;
+}
+
 // A region lost for long searches less often (each search is a template
 // match over 5 scales, 2.8 ms on the cards benchmark), but still comes back.
 TEST(RegionAppearance, LongLostRegionSearchesLessOftenButComesBack) {

@@ -147,6 +147,19 @@ void RegionTracker::checkAppearance(const RegionState& state, RegionState* next,
   // road's perspective), where it knows the region well (a strong match:
   // a walker's look changes with every step, and turns as often).
   if (m.score >= o.reacquire_score) turnByLook(state, next, m, motion_weak, motion_confidence, image);
+  // The box's aspect: tried on every kLookStretchEvery-th strong check (a
+  // target turns broadside over seconds, and each try costs two to five
+  // matches close around the box, as many as the turn's two).
+  if (m.score < o.reacquire_score || motion_weak) {
+    next->stretch_run = 0;
+  } else if (next->stretch_wait < 0) {
+    next->stretch_wait = static_cast<int>(next->id % kLookStretchEvery);
+  } else if (next->stretch_wait > 0) {
+    --next->stretch_wait;
+  } else {
+    next->stretch_wait = kLookStretchEvery - 1;
+    stretchByLook(next, m, image);
+  }
   // A clearly better look nearby: move toward it (all the way when the motion
   // data had nothing to say about the region itself).
   if (m.score >= o.appearance_accept && m.score > m.score_at_box + o.appearance_gap) {
@@ -231,6 +244,41 @@ void RegionTracker::turnByLook(const RegionState& state, RegionState* next, cons
   if (d == 0) return;
   // As far as the look moves a region's place.
   next->angle = std::remainder(next->angle + lookGain(state, motion_weak, motion_confidence) * d, 2 * M_PI);
+}
+
+void RegionTracker::stretchByLook(RegionState* next, const AppearanceMatch& m, const cv::Mat& image) const {
+  const double step = kLookStretchStep;
+  const double aspect = next->box.width / next->box.height;
+  if (!(aspect > 0)) return;
+  const cv::Rect2d at = region_geometry::withAspect(m.box, aspect);
+  // Which way `look` matches better stretched than at the box's aspect (0:
+  // neither, or it no longer knows the region). Only a stretch that matches
+  // better than the box as it is: on a rigid target the look's peak is flat
+  // around its aspect, and the noise of a parabola through it would set the
+  // box's aspect adrift.
+  const auto way = [&](const RegionAppearance& look, double s0) {
+    const auto score = [&](double k) {
+      const AppearanceMatch a =
+          look.match(image, region_geometry::withAspect(at, aspect * k), kLookTurnMargin, {1.0}, next->angle);
+      return a.found ? a.score : -1.0;
+    };
+    if (s0 < -1) s0 = score(1.0);
+    const double sm = score(std::exp(-step)), sp = score(std::exp(step));
+    if (std::max(sm, sp) < options_.reacquire_score || !(std::max(sm, sp) > s0)) return 0;
+    return sp > sm ? 1 : -1;
+  };
+  // The latest look sees a stretch while it is learning it; the look at
+  // placement, once the latest has taken it in (it learns each frame's
+  // view at the box's aspect).
+  int dir = way(next->appearance, m.score);
+  if (dir == 0 && next->first_appearance.valid()) dir = way(next->first_appearance, -2);
+  const int run = dir == 0 ? 0 : (dir > 0) == (next->stretch_run > 0) ? next->stretch_run + dir : dir;
+  next->stretch_run = run;
+  if (std::abs(run) < kLookStretchRun) return;
+  double a = aspect * std::exp(kLookStretchGain * dir * step);
+  // Within a factor 2 of the aspect it was given.
+  if (next->placed_aspect > 0) a = std::clamp(a, 0.5 * next->placed_aspect, 2.0 * next->placed_aspect);
+  next->box = region_geometry::withAspect(next->box, a);
 }
 
 void RegionTracker::reacquire(RegionState* next, const cv::Mat& image) const {

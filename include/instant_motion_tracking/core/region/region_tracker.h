@@ -95,6 +95,9 @@ struct RegionState {
   RegionAppearance first_appearance;  // its look at placement (checks the template's updates)
   double appearance_score = -1;    // NCC of the look at this frame's box (-1: not checked)
   int appearance_misses = 0;       // consecutive checks it did not look like itself
+  int stretch_run = 0;             // tries in a row its look matched better stretched (> 0: wider, < 0: taller)
+  int stretch_wait = -1;           // strong look checks until its look next tries the box's aspect; -1: not yet
+                                   // staggered (by id)
   cv::Size2d look_size;            // px; its box's size when its look was last confirmed (a lost region is
                                    // searched at that size, not at the one it may have drifted to)
   int lost_frames = 0;             // frames since it was lost
@@ -199,6 +202,16 @@ class RegionTracker {
   // reach of those matches around its best place (a fraction of its sides).
   static constexpr double kLookTurnStep = 0.05;
   static constexpr double kLookTurnMargin = 0.05;
+  // The look's correction of the box's aspect (width / height at the same
+  // area), around its best match `m`: the features' fit has one scale for
+  // both sides, so only the look sees a target turn broadside.
+  void stretchByLook(RegionState* next, const AppearanceMatch& m, const cv::Mat& image) const;
+  // The aspects the look tries either way (log), and how much of the
+  // stretch it found a frame takes.
+  static constexpr double kLookStretchStep = 0.05;
+  static constexpr double kLookStretchGain = 0.3;
+  static constexpr int kLookStretchRun = 3;    // tries in a row before it counts
+  static constexpr int kLookStretchEvery = 3;  // a try every this many strong look checks (staggered by id)
 
   RegionTrackerOptions options_;
   cv::Size image_size_;

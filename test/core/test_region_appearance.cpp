@@ -254,7 +254,7 @@ TEST(RegionAppearance, LostRegionIsSearchedAtItsLastConfirmedSize) {
   const RegionState back = tracker.step(lost, emptyMotion(0.033), Direction::kForward, 0, shifted(img, 30, 20));
   EXPECT_EQ(back.status, RegionStatus::kTracked) << back.reason;
   EXPECT_LT(centreError(back.box, box + cv::Point2d(30, 20)), 1.5);
-  // Within the 5% of the scales' steps around its look's size.
+  // Within half a step of the lost search's scales (10%) of its look's size.
   EXPECT_NEAR(back.box.width, box.width, 0.05 * box.width);
   EXPECT_NEAR(back.box.height, box.height, 0.05 * box.height);
 }
@@ -291,10 +291,12 @@ TEST(RegionAppearance, LookTakesTheBoxsAspectAlong) {
   // Widened 0.3% a frame: 1.31x over 90 frames (the aspect from 1.5 to 1.96),
   // then still. One scale for both sides leaves the box at 1.5 (23% off);
   // asking the latest look alone left it at 1.55 after the widening (it
-  // learns the stretch as it comes). Measured 1.82 (7% off): the latest look, having learnt the
-  // view at the box's old aspect, pulls back on some tries and breaks the
-  // runs of the look at placement. Bar 10%, a third of the way from there.
+  // learns the stretch as it comes). Measured 1.82 (7% off): the latest
+  // look, having learnt the view at the box's old aspect, pulls back on
+  // some tries and breaks the runs of the look at placement. Bar 10%: a
+  // fifth of the way from there to one scale for both sides.
   const auto [wide, wide_truth] = run(1.003);
+  std::printf("widened: the box's aspect %.3f against the truth's %.3f\n", wide, wide_truth);
   EXPECT_NEAR(wide / wide_truth, 1.0, 0.10) << wide << " against " << wide_truth;
   // Rigid: its aspect stays within one step of the look's stretch.
   const auto [rigid, rigid_truth] = run(1.0);

@@ -60,7 +60,8 @@ TEST_P(RegionReal, FirstFrameBoxIsFollowed) {
 
 // Measured success AUC (2026-11-27, the box's aspect taken along by the
 // look): car1 0.731, boat1 0.811, Human3 0.128, V25_2 0.846, V24_7 0.866
-// (before: 0.756, 0.755, 0.128, 0.846, 0.867; boat1's floor was 0.70 then).
+// (before: 0.756, 0.755, 0.128, 0.846, 0.867; boat1's floor was 0.70 then;
+// now under its 8 nudged starts' lowest, 0.751, as car1's is).
 // Earlier (2026-11-26, regions turning with the camera and
 // their look, scored by their reported extent): car1 0.754, boat1 0.755,
 // Human3 0.126, V25_2 0.846, V24_7 0.867 (before they turned: 0.761, 0.743,
@@ -71,7 +72,7 @@ TEST_P(RegionReal, FirstFrameBoxIsFollowed) {
 // decode instead of cvtColor it scored 0.602 before that change; its 8
 // nudged starts now span 0.720..0.771), so its floor is 0.65.
 INSTANTIATE_TEST_SUITE_P(Sequences, RegionReal,
-                         ::testing::Values(RealCase{"vot2015_car1", 0.65}, RealCase{"uav123_10fps_boat1", 0.76},
+                         ::testing::Values(RealCase{"vot2015_car1", 0.65}, RealCase{"uav123_10fps_boat1", 0.74},
                                            RealCase{"otb_human3_first199", 0.07},
                                            RealCase{"pot210_V25_2", 0.79}, RealCase{"pot210_V24_7", 0.81}),
                          [](const ::testing::TestParamInfo<RealCase>& info) {

@@ -275,7 +275,9 @@ RegionState RegionTracker::stepMotion(const RegionState& state, const MotionData
     v.weight = v.prior;
     vecs.push_back(v);
   };
-  // 1 when unknown or nonsense (below 1: finer than the image itself).
+  // 1 when unknown or nonsense (below 1: finer than the image itself); at
+  // most 64 (an analysis width of 60 px reading 3840: beyond that the
+  // features' weights would vanish against the region's own corners).
   const double motion_scale =
       std::isfinite(md.analysis_scale) && md.analysis_scale > 1 ? std::min<double>(md.analysis_scale, 64) : 1.0;
   for (auto fit = crop_begin; fit != crop_end; ++fit) {

@@ -109,6 +109,7 @@ void RegionTracker::checkAppearance(const RegionState& state, RegionState* next,
   const RegionTrackerOptions& o = options_;
   if (next->status == RegionStatus::kLost || next->status == RegionStatus::kOutOfView) {
     next->appearance_score = -1;
+    next->stretch_run = 0;
     return;
   }
   // A region in doubt is searched for wider, the wider the longer since its
@@ -146,10 +147,10 @@ void RegionTracker::checkAppearance(const RegionState& state, RegionState* next,
   // region turned with it (a car on the road ahead does not roll with the
   // road's perspective), where it knows the region well (a strong match:
   // a walker's look changes with every step, and turns as often).
-  if (m.score >= o.reacquire_score) turnByLook(state, next, m, motion_weak, motion_confidence, image);
   // The box's aspect: tried on every kLookStretchEvery-th strong check (a
-  // target turns broadside over seconds, and each try costs two to five
-  // matches close around the box, as many as the turn's two).
+  // target turns broadside over seconds; a try costs two matches close
+  // around the box, five when the look at placement is asked too). Before
+  // the turn: its tries are held against m.score, taken at this turn.
   if (m.score < o.reacquire_score || motion_weak) {
     next->stretch_run = 0;
   } else if (next->stretch_wait < 0) {
@@ -160,6 +161,7 @@ void RegionTracker::checkAppearance(const RegionState& state, RegionState* next,
     next->stretch_wait = kLookStretchEvery - 1;
     stretchByLook(next, m, image);
   }
+  if (m.score >= o.reacquire_score) turnByLook(state, next, m, motion_weak, motion_confidence, image);
   // A clearly better look nearby: move toward it (all the way when the motion
   // data had nothing to say about the region itself).
   if (m.score >= o.appearance_accept && m.score > m.score_at_box + o.appearance_gap) {
@@ -315,10 +317,12 @@ void RegionTracker::reacquire(RegionState* next, const cv::Mat& image) const {
     return m;
   };
   AppearanceMatch m = search(next->box);
-  // Also at the size its look was last confirmed at, when that is beyond the
-  // scales' reach: a region that drifted onto what covered it may have grown
-  // or shrunk with that before it was lost (the coarse search reads the
-  // frame at the box's own size, so it misses a size 1.2x off).
+  // Also at the size its look was last confirmed at, when the box drifted
+  // more than 1.1x from it: a region that drifted onto what covered it may
+  // have grown or shrunk with that before it was lost (the coarse search
+  // reads the frame at the box's own size, so it misses a target 1.2x off).
+  // Only when the search at the box found nothing: searching both and
+  // keeping the better found region_hidden later among 99 others.
   const cv::Rect2d look_box = region_geometry::withSize(next->box, next->look_size);
   const double off = std::abs(std::log(look_box.area() / std::max(1e-9, next->box.area()))) / 2;
   if (off > std::log(1.1) && (!m.found || m.score < o.reacquire_score)) {

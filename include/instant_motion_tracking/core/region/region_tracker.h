@@ -98,8 +98,8 @@ struct RegionState {
   int stretch_run = 0;             // tries in a row its look matched better stretched (> 0: wider, < 0: taller)
   int stretch_wait = -1;           // strong look checks until its look next tries the box's aspect; -1: not yet
                                    // staggered (by id)
-  cv::Size2d look_size;            // px; its box's size when its look was last confirmed (a lost region is
-                                   // searched at that size, not at the one it may have drifted to)
+  cv::Size2d look_size;            // px; its box's size when its look was last confirmed (a lost region whose
+                                   // box drifted beyond 1.1x of it is searched at that size too)
   int lost_frames = 0;             // frames since it was lost
   int look_wait = 0;               // frames until its look's next turn (appearance_budget); -1: not yet given its turns
   int look_age = 0;                // frames since its look was last checked
@@ -206,8 +206,8 @@ class RegionTracker {
   // area), around its best match `m`: the features' fit has one scale for
   // both sides, so only the look sees a target turn broadside.
   void stretchByLook(RegionState* next, const AppearanceMatch& m, const cv::Mat& image) const;
-  // The aspects the look tries either way (log), and how much of the
-  // stretch it found a frame takes.
+  // The aspects the look tries either way (log, at the same area: each side
+  // about 2.5%), and how much of that step a try that counts takes (1.5%).
   static constexpr double kLookStretchStep = 0.05;
   static constexpr double kLookStretchGain = 0.3;
   static constexpr int kLookStretchRun = 3;    // tries in a row before it counts

@@ -108,7 +108,8 @@ struct RegionTrackerOptions {
       "correlation below which the region does not look like itself");
     v("appearance_lost_frames", appearance_lost_frames,
       "consecutive such frames after which the region is lost (0 = never)");
-    v("reacquire_score", reacquire_score, "correlation at which a lost region is found again");
+    v("reacquire_score", reacquire_score,
+      "correlation at which a lost region is found again, and a tracked one's look may correct its turn and aspect");
     v("reacquire_interval", reacquire_interval,
       "frames between a lost region's whole-frame searches (around its last place: every frame for the first 2 intervals, then with them); after 30 intervals, 4 times as many (0 = around its last place on every frame only)");
     v("appearance_budget", appearance_budget,

@@ -141,12 +141,6 @@ void RegionTracker::checkAppearance(const RegionState& state, RegionState* next,
   double score = m.score_at_box;
   // How firmly the features carry the region (1: confidence_inliers or more).
   const double motion_confidence = motion_weak ? 0.0 : std::min(1.0, next->inliers.size() / o.confidence_inliers);
-  // The look's own turn: the template a step either way of the region's
-  // turn, matched close around the best place. The motion gives the turn
-  // of the background where the region is; the look says whether the
-  // region turned with it (a car on the road ahead does not roll with the
-  // road's perspective), where it knows the region well (a strong match:
-  // a walker's look changes with every step, and turns as often).
   // The box's aspect: tried on every kLookStretchEvery-th strong check (a
   // target turns broadside over seconds; a try costs two matches close
   // around the box, five when the look at placement is asked too). Before
@@ -161,6 +155,12 @@ void RegionTracker::checkAppearance(const RegionState& state, RegionState* next,
     next->stretch_wait = kLookStretchEvery - 1;
     stretchByLook(next, m, image);
   }
+  // The look's own turn: the template a step either way of the region's
+  // turn, matched close around the best place. The motion gives the turn
+  // of the background where the region is; the look says whether the
+  // region turned with it (a car on the road ahead does not roll with the
+  // road's perspective), where it knows the region well (a strong match:
+  // a walker's look changes with every step, and turns as often).
   if (m.score >= o.reacquire_score) turnByLook(state, next, m, motion_weak, motion_confidence, image);
   // A clearly better look nearby: move toward it (all the way when the motion
   // data had nothing to say about the region itself).

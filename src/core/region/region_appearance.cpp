@@ -26,6 +26,21 @@ cv::Mat crop(const cv::Mat& gray, const cv::Rect& r) {
   return roi;
 }
 
+// `roi` halved (area averaging) while it is at least twice `size`, first
+// cut to even sides (the crop is rounded to whole pixels anyway). OpenCV 4.6
+// averages areas by a whole factor ~5 times faster than by another one: a
+// 640 x 480 frame shrunk to 154 x 115 took 1.05 ms in one step, 0.25 ms
+// halved first; the two differ by half a grey level on average.
+cv::Mat halvedToward(cv::Mat roi, cv::Size size) {
+  while (roi.cols >= 2 * std::max(1, size.width) && roi.rows >= 2 * std::max(1, size.height)) {
+    cv::Mat half;
+    cv::resize(roi(cv::Rect(0, 0, roi.cols & ~1, roi.rows & ~1)), half, cv::Size(roi.cols / 2, roi.rows / 2), 0, 0,
+               cv::INTER_AREA);
+    roi = half;
+  }
+  return roi;
+}
+
 // `rect` turned by `angle` about its centre, of `gray`, resampled to `size`
 // (area averaging), as CV_32F: `size` px across the rect's own axes. The
 // part outside the image repeats its border. False when less than
@@ -44,7 +59,8 @@ bool sample(const cv::Mat& gray, const cv::Rect2d& rect, cv::Size size, double m
   if (roi.empty()) return false;
   cv::Mat small;
   if (!turned) {
-    cv::resize(roi, small, size, 0, 0, roi.cols > size.width ? cv::INTER_AREA : cv::INTER_LINEAR);
+    const cv::Mat src = halvedToward(roi, size);
+    cv::resize(src, small, size, 0, 0, src.cols > size.width ? cv::INTER_AREA : cv::INTER_LINEAR);
     small.convertTo(*out, CV_32F);
     return true;
   }
@@ -55,10 +71,9 @@ bool sample(const cv::Mat& gray, const cv::Rect2d& rect, cv::Size size, double m
   const double fx = std::min(1.0, sx), fy = std::min(1.0, sy);               // the first step's scale
   cv::Mat scaled = roi;
   if (fx < 1 || fy < 1) {
-    cv::resize(roi, scaled,
-               cv::Size(std::max(1, static_cast<int>(std::lround(roi.cols * fx))),
-                        std::max(1, static_cast<int>(std::lround(roi.rows * fy)))),
-               0, 0, cv::INTER_AREA);
+    const cv::Size to(std::max(1, static_cast<int>(std::lround(roi.cols * fx))),
+                      std::max(1, static_cast<int>(std::lround(roi.rows * fy))));
+    cv::resize(halvedToward(roi, to), scaled, to, 0, 0, cv::INTER_AREA);
   }
   const double kx = scaled.cols / static_cast<double>(roi.cols), ky = scaled.rows / static_cast<double>(roi.rows);
   // Output pixel (u, v) -> image point c + R (d(u, v)), d in image px along

@@ -245,7 +245,9 @@ RegionState RegionTracker::stepMotion(const RegionState& state, const MotionData
     crop_end = std::upper_bound(crop_begin, md.features.end(), search.br().x + margin,
                             [](double x, const FeatureMotion& f) { return x < f.x; });
   }
-  auto addVec = [&](uint32_t id, const Eigen::Vector2d& src, const Eigen::Vector2d& dst) {
+  // `weigh`: the feature's prior is divided by it (its position's error, in
+  // image px per px it was measured at).
+  auto addVec = [&](uint32_t id, const Eigen::Vector2d& src, const Eigen::Vector2d& dst, double weigh) {
     Vec v;
     v.id = id;
     v.src = src;
@@ -272,6 +274,7 @@ RegionState RegionTracker::stepMotion(const RegionState& state, const MotionData
     // An outlier last frame, or background seen as such (below): the cut
     // once, not twice for both.
     if (contains(state.outliers, id) || contains(state.background, id)) v.prior *= o.outlier_cut;
+    v.prior /= weigh;
     v.weight = v.prior;
     vecs.push_back(v);
   };
@@ -286,22 +289,19 @@ RegionState RegionTracker::stepMotion(const RegionState& state, const MotionData
     const Eigen::Vector2d cur(f.x, f.y);
     const Eigen::Vector2d prev = applyH(H_inv, cur - Eigen::Vector2d(f.dx, f.dy));
     const size_t before = vecs.size();
-    if (dir == Direction::kForward) addVec(f.id, prev, cur);
-    else addVec(f.id, cur, prev);
-    if (vecs.size() == before) continue;
-    Vec& v = vecs.back();
-    v.bg = f.bg_weight;
     // Measured at the analysis resolution: off by up to a pixel there,
     // analysis_scale pixels here. The weights are 1 / error, as the robust
     // fit's are; a region's own features are tracked at full resolution.
-    v.prior /= motion_scale;
-    v.weight = v.prior;
+    if (dir == Direction::kForward) addVec(f.id, prev, cur, motion_scale);
+    else addVec(f.id, cur, prev, motion_scale);
+    if (vecs.size() != before) vecs.back().bg = f.bg_weight;
   }
   // The region's own features, tracked from its frame into the next.
   if (!from_image.empty() && !to_image.empty() && !state.own_points.empty()) {
     *own = trackOwnFeatures(from_image, to_image, state.own_points, state.own_ids, state.box, H_dir, object_step,
                             o.region_feature_px, pyramids.state_image, pyramids.image);
-    for (const OwnFeature& f : *own) addVec(f.id, Eigen::Vector2d(f.from.x, f.from.y), Eigen::Vector2d(f.to.x, f.to.y));
+    for (const OwnFeature& f : *own)
+      addVec(f.id, Eigen::Vector2d(f.from.x, f.from.y), Eigen::Vector2d(f.to.x, f.to.y), 1.0);
   }
   const int in_box = static_cast<int>(std::count_if(vecs.begin(), vecs.end(), [](const Vec& v) { return v.in_box; }));
   const double frac_inside = fractionInside(state.box, image_size_);

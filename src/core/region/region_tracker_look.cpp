@@ -10,6 +10,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <optional>
 #include <vector>
 
 namespace imt {
@@ -258,13 +259,14 @@ void RegionTracker::stretchByLook(RegionState* next, const AppearanceMatch& m, c
   // better than the box as it is: on a rigid target the look's peak is flat
   // around its aspect, and the noise of a parabola through it would set the
   // box's aspect adrift.
-  const auto way = [&](const RegionAppearance& look, double s0) {
+  // `known`: its score at the box's aspect, when already measured.
+  const auto way = [&](const RegionAppearance& look, std::optional<double> known) {
     const auto score = [&](double k) {
       const AppearanceMatch a =
           look.match(image, region_geometry::withAspect(at, aspect * k), kLookTurnMargin, {1.0}, next->angle);
       return a.found ? a.score : -1.0;
     };
-    if (s0 < -1) s0 = score(1.0);
+    const double s0 = known ? *known : score(1.0);
     const double sm = score(std::exp(-step)), sp = score(std::exp(step));
     if (std::max(sm, sp) < options_.reacquire_score || !(std::max(sm, sp) > s0)) return 0;
     return sp > sm ? 1 : -1;
@@ -273,7 +275,7 @@ void RegionTracker::stretchByLook(RegionState* next, const AppearanceMatch& m, c
   // placement, once the latest has taken it in (it learns each frame's
   // view at the box's aspect).
   int dir = way(next->appearance, m.score);
-  if (dir == 0 && next->first_appearance.valid()) dir = way(next->first_appearance, -2);
+  if (dir == 0 && next->first_appearance.valid()) dir = way(next->first_appearance, std::nullopt);
   const int run = dir == 0 ? 0 : (dir > 0) == (next->stretch_run > 0) ? next->stretch_run + dir : dir;
   next->stretch_run = run;
   if (std::abs(run) < kLookStretchRun) return;

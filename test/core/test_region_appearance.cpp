@@ -122,6 +122,38 @@ TEST(RegionAppearance, FindsATurnedPatchAtItsTurn) {
   EXPECT_GT(wide.score, 0.9);
 }
 
+// A large box is read halved first (area averaging by 2 while its window
+// is at least twice the template's size; its crop cut to even sides): the
+// match still lands where the patch went, unturned and turned, at a box of
+// odd, fractional size on a 640 x 480 frame.
+TEST(RegionAppearance, FindsALargePatchReadHalvedFirst) {
+  cv::Mat noise(cv::Size(640, 480), CV_8UC1);
+  cv::RNG rng(11);
+  rng.fill(noise, cv::RNG::UNIFORM, 0, 256);
+  cv::Mat img;
+  cv::GaussianBlur(noise, img, cv::Size(0, 0), 4.0);  // texture at the template's scale (1/5)
+  cv::normalize(img, img, 0, 255, cv::NORM_MINMAX);
+  const cv::Rect2d box(180.4, 150.7, 201.3, 151.1);  // template 40 x 30: 5 image px each
+  RegionAppearance a;
+  ASSERT_TRUE(RegionAppearance::create(img, box, 40, &a));
+  const cv::Rect2d truth = box + cv::Point2d(13, -7);
+  const AppearanceMatch m = a.match(shifted(img, 13, -7), box, 0.35);
+  ASSERT_TRUE(m.found);
+  // Half a template px (2.5 image px): sub-pixel peak fitting on a smooth
+  // texture; the even cut moves the read by under one image px.
+  EXPECT_LT(centreError(m.box, truth), 2.5);
+  EXPECT_GT(m.score, 0.9);
+  const double angle = 0.3;
+  const cv::Point2d c(truth.x + truth.width / 2, truth.y + truth.height / 2);
+  const cv::Mat moved = turned(shifted(img, 13, -7), c, angle * 180 / M_PI);
+  const AppearanceMatch t = a.match(moved, box, 0.35, {1.0}, angle);
+  ASSERT_TRUE(t.found);
+  EXPECT_LT(centreError(t.box, truth), 2.5);
+  EXPECT_GT(t.score, 0.9);
+  std::printf("201 x 151 px patch: centre error %.2f px (score %.3f), turned 0.3 rad %.2f px (score %.3f)\n",
+              centreError(m.box, truth), m.score, centreError(t.box, truth), t.score);
+}
+
 // A small box keeps its own pixels (a template under 12 px: no coarse
 // level): the wide search is then a fine one, and finds it to the pixel.
 TEST(RegionAppearance, WideSearchFindsASmallPatch) {

@@ -335,6 +335,45 @@ TEST(RegionAppearance, LookTakesTheBoxsAspectAlong) {
   EXPECT_NEAR(rigid / rigid_truth, 1.0, 0.02) << rigid;
 }
 
+// A region the features carry weakly takes its size from its look: a few
+// features' scale is noisy, and a region found again has the size of a
+// coarse search (5% steps). Here its box is 1.08x the target's, as after
+// such a search, the look at placement taken at the target's own size.
+TEST(RegionAppearance, LookSizesARegionTheFeaturesCarryWeakly) {
+  const cv::Mat img = texture();
+  const cv::Rect2d box(130, 100, 60, 40);
+  RegionTrackerOptions o;
+  o.region_features = 8;  // a few features: under 3/4 of confidence_inliers (20), the look sizes it
+  RegionTracker tracker(o, kSize);
+  // The box's size over the target's (the root of their areas' ratio: its
+  // aspect is the look's too), averaged over the last second of 3 s.
+  const auto run = [&](double off) {
+    RegionState s = placed(tracker, img, box);
+    s.box = cv::Rect2d(160 - 30 * off, 120 - 20 * off, 60 * off, 40 * off);  // about the box's centre
+    double sum = 0;
+    for (int k = 1; k <= 90; ++k) {
+      MotionData md = emptyMotion(0.033 * k);
+      md.camera.model = MotionModel::kHomography;  // a still camera (identity)
+      s = tracker.step(s, md, Direction::kForward, 0, img, img);
+      if (k > 60) sum += std::sqrt(s.box.area() / box.area());
+    }
+    EXPECT_EQ(s.status, RegionStatus::kTracked) << s.reason;
+    EXPECT_LT(centreError(s.box, box), 2.0);
+    return sum / 30;
+  };
+  // 1.08x: the features see no change of scale, the look does. Measured
+  // 1.026x, moving 1.5% either way between 1.017x and 1.032x from the
+  // second second on (the latest look, which learnt the box at 1.08x,
+  // holds some of it; 1.024x after 5 s); without the look's size it stays
+  // at 1.080x. Bar 4%: half the way. (This texture is fine-grained: at
+  // 1.15x the look no longer knows it, 0.42.)
+  const double grown = run(1.08);
+  std::printf("a box 1.08x the target's: %.3f x over the last second\n", grown);
+  EXPECT_NEAR(grown, 1.0, 0.04);
+  // At its size: it stays within one of the look's moves (measured 1.000x).
+  EXPECT_NEAR(run(1.0), 1.0, 0.015);
+}
+
 // A region lost for long searches less often (each search is a template
 // match over 5 scales, 2.8 ms on the cards benchmark), but still comes back.
 TEST(RegionAppearance, LongLostRegionSearchesLessOftenButComesBack) {

@@ -174,7 +174,9 @@ TEST(RegionFailureClass, SmallTargetAt720p) {
       "frames (goal %.2f)\n",
       b.width, b.height, t.size.width, t.size.height, t.start, iou, n, kGoal);
   EXPECT_GT(n, 200);
-  // Measured 0.893 (seeds 2-4: 0.850, 0.900, 0.900) since a look's window
+  // Measured 0.903 (seeds 2-4: 0.875, 0.893, 0.900) since the look sizes
+  // a region its features carry weakly (RegionTracker::reshapeByLook);
+  // 0.893 (0.850, 0.900, 0.900) since a look's window
   // is halved first (numbers' order only); 0.890 (0.850, 0.917, 0.895) since the look takes
   // the box's aspect along (0.905; 0.855, 0.926, 0.918 before: it stretches
   // this thin card a little too far, while boat1 gains 0.05). Since the motion
@@ -317,7 +319,11 @@ TEST(RegionFailureClass, HiddenFor2sThenBack) {
   EXPECT_NEAR((hidden_to - hidden_from) / fps, 2.0, 0.2);
   EXPECT_GT(nb, 30);
   EXPECT_GT(na, 30);
-  // Measured before 0.853, after 0.899 (seeds 2-4: 0.890 / 0.810, 0.875 /
+  // Measured before 0.865, after 0.878 (seeds 2-4: 0.890 / 0.911, 0.885 /
+  // 0.884, 0.890 / 0.920) since the look sizes a region its features carry
+  // weakly (seed 2: found again 8% small, at 68 x 53 px against 74 x 61,
+  // carried by 10-15 inliers: the look grows it back within a second);
+  // floors raised to 0.81 / 0.83 then. Before 0.853, after 0.899 (seeds 2-4: 0.890 / 0.810, 0.875 /
   // 0.811, 0.890 / 0.899) with a look's window halved first (the numbers'
   // order moves when the card is found again); before 0.856, after 0.827
   // (0.887 / 0.809, 0.874 / 0.923, 0.886 / 0.888) with the box's aspect
@@ -343,8 +349,8 @@ TEST(RegionFailureClass, HiddenFor2sThenBack) {
   // placement and a wider scale range it was found 20 frames later, or never
   // (after 0.743; seeds 2-4: 0.000, 0.504, 0.140). Floors 0.05 under. Goal
   // 0.85 each.
-  EXPECT_GE(before, 0.80);
-  EXPECT_GE(again, 0.77);
+  EXPECT_GE(before, 0.81);
+  EXPECT_GE(again, 0.83);
 }
 
 // With many regions (region_tracking.appearance_budget, 8 by default) a

@@ -110,7 +110,7 @@ void RegionTracker::checkAppearance(const RegionState& state, RegionState* next,
   const RegionTrackerOptions& o = options_;
   if (next->status == RegionStatus::kLost || next->status == RegionStatus::kOutOfView) {
     next->appearance_score = -1;
-    next->stretch_run = 0;
+    next->stretch_run = next->size_run = 0;
     return;
   }
   // A region in doubt is searched for wider, the wider the longer since its
@@ -142,19 +142,21 @@ void RegionTracker::checkAppearance(const RegionState& state, RegionState* next,
   double score = m.score_at_box;
   // How firmly the features carry the region (1: confidence_inliers or more).
   const double motion_confidence = motion_weak ? 0.0 : std::min(1.0, next->inliers.size() / o.confidence_inliers);
-  // The box's aspect: tried on every kLookStretchEvery-th strong check (a
-  // target turns broadside over seconds; a try costs two matches close
-  // around the box, five when the look at placement is asked too). Before
+  // The box's aspect, and its size where the features carry it weakly:
+  // tried on every kLookStretchEvery-th strong check (a target turns
+  // broadside over seconds; a try costs two matches close around the box,
+  // five when the look at placement is asked too, and as many for the
+  // size). Before
   // the turn: its tries are held against m.score, taken at this turn.
   if (m.score < o.reacquire_score || motion_weak) {
-    next->stretch_run = 0;
+    next->stretch_run = next->size_run = 0;
   } else if (next->stretch_wait < 0) {
     next->stretch_wait = static_cast<int>(next->id % kLookStretchEvery);
   } else if (next->stretch_wait > 0) {
     --next->stretch_wait;
   } else {
     next->stretch_wait = kLookStretchEvery - 1;
-    stretchByLook(next, m, image);
+    reshapeByLook(next, m, motion_confidence, image);
   }
   // The look's own turn: the template a step either way of the region's
   // turn, matched close around the best place. The motion gives the turn
@@ -205,7 +207,7 @@ void RegionTracker::checkAppearance(const RegionState& state, RegionState* next,
         const double tolerance = 0.015 * std::max(next->box.width, next->box.height);
         return first.found && first.score >= o.appearance_lost_score && std::hypot(d.x, d.y) <= tolerance;
       };
-      if (motion_confidence >= 0.75 || firstAgrees()) {
+      if (motion_confidence >= kFirmlyCarried || firstAgrees()) {
         next->appearance.blend(image, next->box, 1 - std::pow(1 - o.appearance_update, state.look_age + 1),
                                next->angle);
         next->look_size = next->box.size();
@@ -249,21 +251,23 @@ void RegionTracker::turnByLook(const RegionState& state, RegionState* next, cons
   next->angle = std::remainder(next->angle + lookGain(state, motion_weak, motion_confidence) * d, 2 * M_PI);
 }
 
-void RegionTracker::stretchByLook(RegionState* next, const AppearanceMatch& m, const cv::Mat& image) const {
+void RegionTracker::reshapeByLook(RegionState* next, const AppearanceMatch& m, double motion_confidence,
+                                  const cv::Mat& image) const {
   const double step = kLookStretchStep;
   const double aspect = next->box.width / next->box.height;
   if (!(aspect > 0)) return;
   const cv::Rect2d at = region_geometry::withAspect(m.box, aspect);
-  // Which way `look` matches better stretched than at the box's aspect (0:
-  // neither, or it no longer knows the region). Only a stretch that matches
-  // better than the box as it is: on a rigid target the look's peak is flat
-  // around its aspect, and the noise of a parabola through it would set the
-  // box's aspect adrift.
-  // `known`: its score at the box's aspect, when already measured.
-  const auto way = [&](const RegionAppearance& look, std::optional<double> known) {
+  const auto stretched = [&](const cv::Rect2d& b, double k) { return region_geometry::withAspect(b, aspect * k); };
+  const auto sized = [](const cv::Rect2d& b, double k) { return region_geometry::withSize(b, b.size() * k); };
+  // Which way `look` matches better with the box reshaped by a step either
+  // way (`reshape(box, k)`, k = e^-step, e^step) than as it is (0: neither,
+  // or it no longer knows the region). Only a reshape that matches better
+  // than the box as it is: on a rigid target the look's peak is flat around
+  // the box's shape, and the noise of a parabola through it would set the
+  // box adrift. `known`: its score at the box's shape, when already measured.
+  const auto way = [&](const RegionAppearance& look, std::optional<double> known, const auto& reshape) {
     const auto score = [&](double k) {
-      const AppearanceMatch a =
-          look.match(image, region_geometry::withAspect(at, aspect * k), kLookTurnMargin, {1.0}, next->angle);
+      const AppearanceMatch a = look.match(image, reshape(at, k), kLookTurnMargin, {1.0}, next->angle);
       return a.found ? a.score : -1.0;
     };
     const double s0 = known ? *known : score(1.0);
@@ -271,18 +275,29 @@ void RegionTracker::stretchByLook(RegionState* next, const AppearanceMatch& m, c
     if (std::max(sm, sp) < options_.reacquire_score || !(std::max(sm, sp) > s0)) return 0;
     return sp > sm ? 1 : -1;
   };
-  // The latest look sees a stretch while it is learning it; the look at
+  // The latest look sees a reshape while it is learning it; the look at
   // placement, once the latest has taken it in (it learns each frame's
-  // view at the box's aspect).
-  int dir = way(next->appearance, m.score);
-  if (dir == 0 && next->first_appearance.valid()) dir = way(next->first_appearance, std::nullopt);
-  const int run = dir == 0 ? 0 : (dir > 0) == (next->stretch_run > 0) ? next->stretch_run + dir : dir;
-  next->stretch_run = run;
-  if (std::abs(run) < kLookStretchRun) return;
-  double a = aspect * std::exp(kLookStretchGain * dir * step);
-  // Within a factor 2 of the aspect it was given.
-  if (next->placed_aspect > 0) a = std::clamp(a, 0.5 * next->placed_aspect, 2.0 * next->placed_aspect);
-  next->box = region_geometry::withAspect(next->box, a);
+  // view at the box's shape).
+  const auto ask = [&](const auto& reshape) {
+    const int dir = way(next->appearance, m.score, reshape);
+    return dir == 0 && next->first_appearance.valid() ? way(next->first_appearance, std::nullopt, reshape) : dir;
+  };
+  const auto runOf = [](int dir, int run) { return dir == 0 ? 0 : (dir > 0) == (run > 0) ? run + dir : dir; };
+  const int stretch = ask(stretched);
+  next->stretch_run = runOf(stretch, next->stretch_run);
+  // Its size only where the features carry it weakly: a target turning
+  // away (POT's V24_7, 47 degrees) matches a smaller template best, and
+  // its features measure its scale better than that.
+  const int grow = motion_confidence < kFirmlyCarried ? ask(sized) : 0;
+  next->size_run = runOf(grow, next->size_run);
+  const double gain = kLookStretchGain * step;
+  if (std::abs(next->size_run) >= kLookStretchRun) next->box = sized(next->box, std::exp(gain * grow));
+  if (std::abs(next->stretch_run) >= kLookStretchRun) {
+    double a = aspect * std::exp(gain * stretch);
+    // Within a factor 2 of the aspect it was given.
+    if (next->placed_aspect > 0) a = std::clamp(a, 0.5 * next->placed_aspect, 2.0 * next->placed_aspect);
+    next->box = region_geometry::withAspect(next->box, a);
+  }
 }
 
 void RegionTracker::reacquire(RegionState* next, const cv::Mat& image) const {

@@ -96,7 +96,8 @@ struct RegionState {
   double appearance_score = -1;    // NCC of the look at this frame's box (-1: not checked)
   int appearance_misses = 0;       // consecutive checks it did not look like itself
   int stretch_run = 0;             // tries in a row its look matched better stretched (> 0: wider, < 0: taller)
-  int stretch_wait = -1;           // strong look checks until its look next tries the box's aspect; -1: not yet
+  int size_run = 0;                // the same, larger (> 0) or smaller (< 0) at the same aspect
+  int stretch_wait = -1;           // strong look checks until its look next tries the box's shape; -1: not yet
                                    // staggered (by id)
   cv::Size2d look_size;            // px; its box's size when its look was last confirmed (a lost region whose
                                    // box drifted beyond 1.1x of it is searched at that size too)
@@ -204,14 +205,23 @@ class RegionTracker {
   static constexpr double kLookTurnMargin = 0.05;
   // The look's correction of the box's aspect (width / height at the same
   // area), around its best match `m`: the features' fit has one scale for
-  // both sides, so only the look sees a target turn broadside.
-  void stretchByLook(RegionState* next, const AppearanceMatch& m, const cv::Mat& image) const;
-  // The aspects the look tries either way (log, at the same area: each side
-  // about 2.5%), and how much of that step a try that counts takes (1.5%).
+  // both sides, so only the look sees a target turn broadside. And of its
+  // size, where the features carry it weakly (`motion_confidence` under
+  // kFirmlyCarried): a few features' scale is noisy, and a region found
+  // again takes its size from a coarse search.
+  void reshapeByLook(RegionState* next, const AppearanceMatch& m, double motion_confidence,
+                     const cv::Mat& image) const;
+  // The aspects and sizes the look tries either way (log: at the same area
+  // each side about 2.5%, at the same aspect 5%), and how much of that step
+  // a try that counts takes (1.5% of the aspect or size).
   static constexpr double kLookStretchStep = 0.05;
   static constexpr double kLookStretchGain = 0.3;
   static constexpr int kLookStretchRun = 3;    // tries in a row before it counts
   static constexpr int kLookStretchEvery = 3;  // a try every this many strong look checks (staggered by id)
+  // The motion confidence at which the features carry a region firmly: its
+  // look learns without the look at placement's consent, and its size is
+  // theirs alone.
+  static constexpr double kFirmlyCarried = 0.75;
 
   RegionTrackerOptions options_;
   cv::Size image_size_;

@@ -146,8 +146,8 @@ void RegionTracker::checkAppearance(const RegionState& state, RegionState* next,
   // tried on every kLookStretchEvery-th strong check (a target turns
   // broadside over seconds; a try costs two matches close around the box,
   // five when the look at placement is asked too, and as many for the
-  // size). Before
-  // the turn: its tries are held against m.score, taken at this turn.
+  // size). Before the turn: its tries are held against m.score, taken at
+  // this turn.
   if (m.score < o.reacquire_score || motion_weak) {
     next->stretch_run = next->size_run = 0;
   } else if (next->stretch_wait < 0) {

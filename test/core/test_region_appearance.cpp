@@ -5,6 +5,7 @@
 #include "instant_motion_tracking/core/region/region_manager.h"
 #include "instant_motion_tracking/core/region/region_tracker.h"
 #include "../../src/core/region/region_features.h"
+#include "../../src/core/region/region_geometry.h"
 
 #include <gtest/gtest.h>
 #include <opencv2/imgproc.hpp>
@@ -349,7 +350,7 @@ TEST(RegionAppearance, LookSizesARegionTheFeaturesCarryWeakly) {
   // aspect is the look's too), averaged over the last second of 3 s.
   const auto run = [&](double off) {
     RegionState s = placed(tracker, img, box);
-    s.box = cv::Rect2d(160 - 30 * off, 120 - 20 * off, 60 * off, 40 * off);  // about the box's centre
+    s.box = region_geometry::withSize(box, box.size() * off);  // about the box's centre
     double sum = 0;
     for (int k = 1; k <= 90; ++k) {
       MotionData md = emptyMotion(0.033 * k);

@@ -264,13 +264,15 @@ void RegionTracker::reshapeByLook(RegionState* next, const AppearanceMatch& m, d
   // or it no longer knows the region). Only a reshape that matches better
   // than the box as it is: on a rigid target the look's peak is flat around
   // the box's shape, and the noise of a parabola through it would set the
-  // box adrift. `known`: its score at the box's shape, when already measured.
-  const auto way = [&](const RegionAppearance& look, std::optional<double> known, const auto& reshape) {
+  // box adrift. `at_box`: the look's score at the box's shape, measured on
+  // first need and kept for the other reshape (both leave `at` as it is).
+  const auto way = [&](const RegionAppearance& look, std::optional<double>& at_box, const auto& reshape) {
     const auto score = [&](double k) {
       const AppearanceMatch a = look.match(image, reshape(at, k), kLookTurnMargin, {1.0}, next->angle);
       return a.found ? a.score : -1.0;
     };
-    const double s0 = known ? *known : score(1.0);
+    if (!at_box) at_box = score(1.0);
+    const double s0 = *at_box;
     const double sm = score(std::exp(-step)), sp = score(std::exp(step));
     if (std::max(sm, sp) < options_.reacquire_score || !(std::max(sm, sp) > s0)) return 0;
     return sp > sm ? 1 : -1;
@@ -278,9 +280,10 @@ void RegionTracker::reshapeByLook(RegionState* next, const AppearanceMatch& m, d
   // The latest look sees a reshape while it is learning it; the look at
   // placement, once the latest has taken it in (it learns each frame's
   // view at the box's shape).
+  std::optional<double> latest_at_box = m.score, first_at_box;
   const auto ask = [&](const auto& reshape) {
-    const int dir = way(next->appearance, m.score, reshape);
-    return dir == 0 && next->first_appearance.valid() ? way(next->first_appearance, std::nullopt, reshape) : dir;
+    const int dir = way(next->appearance, latest_at_box, reshape);
+    return dir == 0 && next->first_appearance.valid() ? way(next->first_appearance, first_at_box, reshape) : dir;
   };
   const auto runOf = [](int dir, int run) { return dir == 0 ? 0 : (dir > 0) == (run > 0) ? run + dir : dir; };
   const int stretch = ask(stretched);

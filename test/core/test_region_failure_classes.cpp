@@ -174,7 +174,8 @@ TEST(RegionFailureClass, SmallTargetAt720p) {
       "frames (goal %.2f)\n",
       b.width, b.height, t.size.width, t.size.height, t.start, iou, n, kGoal);
   EXPECT_GT(n, 200);
-  // Measured 0.903 (seeds 2-4: 0.875, 0.893, 0.900) since the look sizes
+  // Measured 0.898 (seeds 2-4: 0.877, 0.879, 0.902) since the motion fit
+  // is made again from the inliers alone; 0.903 (0.875, 0.893, 0.900) since the look sizes
   // a region its features carry weakly (RegionTracker::reshapeByLook);
   // 0.893 (0.850, 0.900, 0.900) since a look's window
   // is halved first (numbers' order only); 0.890 (0.850, 0.917, 0.895) since the look takes
@@ -230,7 +231,8 @@ TEST(RegionFailureClass, TargetMovingWithTheCamera) {
   std::printf("region_follow: given at frame %d: mean IoU %.3f over %d frames (goal %.2f)\n",
               t.start, iou, n, kGoal);
   EXPECT_GT(n, 200);
-  // Measured 0.940 (seeds 2-4: 0.928, 0.949, 0.873; before the background
+  // Measured 0.939 (seeds 2-4: 0.950, 0.952, 0.879) since the motion fit is
+  // made again from the inliers alone; 0.940 (0.928, 0.949, 0.873; before the background
   // memory 0.923: 0.932, 0.939, 0.880), drifting slowly (IoU 0.98 at
   // 0.7 s, 0.89 at 7 s). Goal 0.85.
   EXPECT_GE(iou, 0.89);
@@ -253,7 +255,9 @@ TEST(RegionFailureClass, StaticPatchPartlyCoveredAtInit) {
       "mean IoU %.3f over %d frames (goal %.2f)\n",
       100 * r0->occluded_fraction, uncovered, iou, n, kGoal);
   EXPECT_GT(n, 150);
-  // Measured 0.935 (seeds 2, 3: 0.949, 0.951): the region stays on the patch.
+  // Measured 0.932 (seeds 2-4: 0.947, 0.946, 0.952) since the motion fit is
+  // made again from the inliers alone; 0.945 (0.954, 0.959, 0.951) before:
+  // the region stays on the patch.
   // Goal 0.85.
   EXPECT_GE(iou, 0.88);
 }
@@ -274,7 +278,10 @@ TEST(RegionFailureClass, GivenMidSequenceBothWays) {
       t.start, backward, nb, forward, nf, kGoal);
   EXPECT_GT(nb, 100);
   EXPECT_GT(nf, 100);
-  // Measured backward 0.817, forward 0.796 (seeds 2-4: 0.823 / 0.802,
+  // Measured backward 0.823, forward 0.810 (seeds 2-4: 0.829 / 0.811,
+  // 0.812 / 0.845, 0.818 / 0.712) since the motion fit is made again from
+  // the inliers alone (the wall around the card, fitting it worse, pulled
+  // its scale); before 0.817 / 0.800. Earlier 0.817 / 0.796 (seeds 2-4: 0.823 / 0.802,
   // 0.801 / 0.836, 0.813 / 0.708); before the background memory 0.815 /
   // 0.804 (0.816 / 0.807, 0.812 / 0.834, 0.811 / 0.707). Before regions turned: 0.832 / 0.813
   // (0.827 / 0.810, 0.828 / 0.840, 0.826 / 0.716): the card rolls +-15 deg
@@ -319,7 +326,9 @@ TEST(RegionFailureClass, HiddenFor2sThenBack) {
   EXPECT_NEAR((hidden_to - hidden_from) / fps, 2.0, 0.2);
   EXPECT_GT(nb, 30);
   EXPECT_GT(na, 30);
-  // Measured before 0.865, after 0.878 (seeds 2-4: 0.890 / 0.911, 0.885 /
+  // Measured before 0.879, after 0.864 (seeds 2-4: 0.885 / 0.930, 0.882 /
+  // 0.884, 0.889 / 0.904) since the motion fit is made again from the
+  // inliers alone. Before 0.865, after 0.878 (seeds 2-4: 0.890 / 0.911, 0.885 /
   // 0.884, 0.890 / 0.920) since the look sizes a region its features carry
   // weakly (seed 2: found again 8% small, at 68 x 53 px against 74 x 61,
   // carried by 10-15 inliers: the look grows it back within a second);
@@ -367,7 +376,9 @@ TEST(RegionFailureClass, TargetAmong99OtherRegions) {
     int n = 0;
     const double iou = t.meanIou(0, static_cast<int>(t.truth.size()), &n);
     std::printf("region_static_covered among 99 other regions: mean IoU %.3f over %d frames\n", iou, n);
-    // Measured 0.945 (seeds 2-4: 0.955, 0.959, 0.951), as alone (0.946);
+    // Measured 0.933 (seeds 2-4: 0.947, 0.946, 0.954), as alone (0.932),
+    // since the motion fit is made again from the inliers alone; 0.945
+    // (0.955, 0.959, 0.951) before;
     // 0.935 while regions in doubt took a look on every frame. Floor 0.05 under.
     EXPECT_GE(iou, 0.89);
   }
@@ -384,7 +395,9 @@ TEST(RegionFailureClass, TargetAmong99OtherRegions) {
     const double again = t.meanIou(back + static_cast<int>(std::lround(0.5 * t.scene->options().fps)), frames, &n);
     std::printf("region_hidden among 99 other regions: mean IoU from 0.5 s after it is back %.3f over %d frames\n",
                 again, n);
-    // Measured 0.851 (seeds 2-4: 0.811, 0.938, 0.838) with a look's window
+    // Measured 0.865 (seeds 2-4: 0.940, 0.940, 0.919) since the motion fit
+    // is made again from the inliers alone; floor raised to 0.81 then.
+    // 0.851 (0.811, 0.938, 0.838) with a look's window
     // halved first; 0.855 (0.805, 0.937, 0.831; alone 0.818, 0.809,
     // 0.923, 0.889) since the motion analysis's features weigh 1 /
     // analysis_scale and the lost search tries the look's size too; 0.842
@@ -399,7 +412,7 @@ TEST(RegionFailureClass, TargetAmong99OtherRegions) {
     // rode the panel (0.561); with the searches around its last place also
     // on turns only after the first 10 frames lost, never found (0.000).
     // Floor 0.05 under.
-    EXPECT_GE(again, 0.80);
+    EXPECT_GE(again, 0.81);
   }
 }
 

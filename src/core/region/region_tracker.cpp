@@ -402,6 +402,16 @@ RegionState RegionTracker::stepMotion(const RegionState& state, const MotionData
     }
     dof = n_in >= o.min_inliers_similarity ? 4 : n_in >= o.min_inliers_scale ? 3 : 2;
   }
+  // The model again from the inliers alone: the features that fit it
+  // worse still pull on it through their IRLS weights, most on its scale
+  // (the wall around a card, at the edges of its search area).
+  if (model.dof >= 3) {
+    std::vector<Vec> in;
+    for (const Vec& v : vecs)
+      if (v.in_box && v.error < o.inlier_error + 0.1 * model.t.norm()) in.push_back(v);
+    LocalModel refit;
+    if (static_cast<int>(in.size()) >= o.min_inliers_scale && fitModel(in, c_cam, model.dof, &refit)) model = refit;
+  }
   // Degree checks: fall back when scale or rotation leave their bounds.
   // The bounds are per usual frame interval: a step over g intervals may
   // scale and rotate g times as much.

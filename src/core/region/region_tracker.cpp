@@ -383,6 +383,9 @@ RegionState RegionTracker::stepMotion(const RegionState& state, const MotionData
     return s;
   }
 
+  // A feature in the box supports the model when its residual is under
+  // inlier_error plus a tenth of the model's own motion.
+  const auto inlierThreshold = [&](const LocalModel& m) { return o.inlier_error + 0.1 * m.t.norm(); };
   // IRLS: w_i = prior_i / error_i, fitting the highest model the inliers support.
   LocalModel model;
   int dof = 2;
@@ -393,8 +396,7 @@ RegionState RegionTracker::stepMotion(const RegionState& state, const MotionData
       fitModel(vecs, c_cam, dof, &model);
     }
     n_in = 0;
-    const double motion = model.t.norm();
-    const double thr = o.inlier_error + 0.1 * motion;
+    const double thr = inlierThreshold(model);
     for (Vec& v : vecs) {
       v.error = (v.dst - model.apply(v.src_cam)).norm();
       v.weight = v.prior / std::max(v.error, o.error_floor);
@@ -406,9 +408,10 @@ RegionState RegionTracker::stepMotion(const RegionState& state, const MotionData
   // worse still pull on it through their IRLS weights, most on its scale
   // (the wall around a card, at the edges of its search area).
   if (model.dof >= 3) {
+    const double thr = inlierThreshold(model);
     std::vector<Vec> in;
     for (const Vec& v : vecs)
-      if (v.in_box && v.error < o.inlier_error + 0.1 * model.t.norm()) in.push_back(v);
+      if (v.in_box && v.error < thr) in.push_back(v);
     LocalModel refit;
     if (static_cast<int>(in.size()) >= o.min_inliers_scale && fitModel(in, c_cam, model.dof, &refit)) model = refit;
   }
@@ -422,7 +425,7 @@ RegionState RegionTracker::stepMotion(const RegionState& state, const MotionData
   }
 
   // Inliers and outliers from the final residuals.
-  const double thr = o.inlier_error + 0.1 * model.t.norm();
+  const double thr = inlierThreshold(model);
   std::vector<uint32_t> inliers, outliers;
   Eigen::Vector2d centroid = Eigen::Vector2d::Zero();
   int continued = 0;

@@ -6,6 +6,7 @@
 #include "instant_motion_tracking/core/region/region_tracker.h"
 #include "../../src/core/region/region_features.h"
 #include "../../src/core/region/region_geometry.h"
+#include "../../src/core/region/template_correlation.h"
 
 #include <gtest/gtest.h>
 #include <opencv2/imgproc.hpp>
@@ -458,6 +459,53 @@ TEST(RegionAppearance, ManyRegionsTakeTurnsAtTheirLook) {
     }
     EXPECT_EQ(lost_on, regions == 1 ? 20 : 15) << regions << " regions: " << s.reason;
   }
+}
+
+// The look's correlation, shift by shift where there are few shifts, is
+// OpenCV's TM_CCOEFF_NORMED: on textured windows, on a flat one, against a
+// flat template, and past the switch to OpenCV's own.
+TEST(RegionAppearance, CorrelationIsOpenCvsAtEveryWindowSize) {
+  cv::Mat tex;
+  texture().convertTo(tex, CV_32F);
+  const cv::Mat templ = tex(cv::Rect(100, 80, 40, 33)).clone();
+  const cv::Mat flat_templ(33, 40, CV_32F, cv::Scalar(90));
+  cv::Mat flat_window(37, 44, CV_32F, cv::Scalar(120));
+  // Half flat: the shifts over the flat half have (almost) no variance.
+  cv::Mat half = tex(cv::Rect(98, 78, 44, 37)).clone();
+  half(cv::Rect(0, 0, 44, 18)).setTo(50);
+  struct Case {
+    const char* name;
+    cv::Mat window, templ;
+  };
+  const std::vector<Case> cases = {
+      {"one shift", tex(cv::Rect(100, 80, 40, 33)), templ},
+      {"5 x 5 shifts", tex(cv::Rect(98, 78, 44, 37)), templ},
+      {"6 x 6 (past the switch)", tex(cv::Rect(97, 77, 45, 38)), templ},
+      {"29 x 24", tex(cv::Rect(86, 70, 68, 56)), templ},
+      {"flat window", flat_window, templ},
+      {"flat template", tex(cv::Rect(98, 78, 44, 37)), flat_templ},
+      {"half flat window", half, templ},
+  };
+  for (const Case& c : cases) {
+    cv::Mat ours, opencv;
+    correlateNormed(c.window, c.templ, &ours);
+    cv::matchTemplate(c.window, c.templ, opencv, cv::TM_CCOEFF_NORMED);
+    ASSERT_EQ(ours.size(), opencv.size()) << c.name;
+    double worst;
+    cv::minMaxLoc(cv::abs(ours - opencv), nullptr, &worst);
+    // Float rounding only: OpenCV sums through single-precision DFTs
+    // (~1e-6 of the coefficient), this in double. A real difference (a
+    // wrong mean or norm) is 1e-2 or more.
+    EXPECT_LT(worst, 1e-5) << c.name;
+  }
+  // The patch itself is found where it was cut, at a full match.
+  cv::Mat r;
+  correlateNormed(tex(cv::Rect(98, 78, 44, 37)), templ, &r);
+  double best;
+  cv::Point at;
+  cv::minMaxLoc(r, nullptr, &best, nullptr, &at);
+  EXPECT_EQ(at, cv::Point(2, 2));
+  EXPECT_NEAR(best, 1.0, 1e-6);
 }
 
 TEST(RegionAppearance, ScoreAtReadsTheBoxAsItStands) {

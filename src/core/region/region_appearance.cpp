@@ -1,6 +1,7 @@
 #include "instant_motion_tracking/core/region/region_appearance.h"
 
 #include "region_geometry.h"
+#include "template_correlation.h"
 
 #include <opencv2/imgproc.hpp>
 
@@ -95,7 +96,7 @@ AppearanceMatch bestMatch(const cv::Mat& templ, const cv::Mat& window, cv::Point
                           cv::Mat* response) {
   AppearanceMatch m;
   if (window.cols < templ.cols || window.rows < templ.rows) return m;
-  cv::matchTemplate(window, templ, *response, cv::TM_CCOEFF_NORMED);
+  correlateNormed(window, templ, response);
   double best;
   cv::Point at;
   cv::minMaxLoc(*response, nullptr, &best, nullptr, &at);
@@ -249,7 +250,7 @@ AppearanceMatch RegionAppearance::matchCoarse(const cv::Mat& gray, const cv::Rec
 double RegionAppearance::scoreAt(const cv::Mat& gray, const cv::Rect2d& box, double angle) const {
   cv::Mat now, response;
   if (!valid() || gray.empty() || !sample(gray, box, templ_.size(), 0.5, &now, angle)) return -1;
-  cv::matchTemplate(now, templ_, response, cv::TM_CCOEFF_NORMED);
+  correlateNormed(now, templ_, &response);
   const float r = response.at<float>(0, 0);
   return std::isfinite(r) ? r : -1;
 }

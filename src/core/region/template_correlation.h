@@ -1,0 +1,14 @@
+// The normalised correlation a region's look is matched by, internal to the
+// region tracker (see template_correlation.cpp).
+#pragma once
+
+#include <opencv2/core.hpp>
+
+namespace imt {
+
+// cv::matchTemplate(window, templ, *response, cv::TM_CCOEFF_NORMED), both
+// CV_32F, the window at least the template's size; computed shift by shift
+// when there are few shifts.
+void correlateNormed(const cv::Mat& window, const cv::Mat& templ, cv::Mat* response);
+
+}  // namespace imt

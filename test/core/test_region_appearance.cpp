@@ -498,6 +498,10 @@ TEST(RegionAppearance, CorrelationIsOpenCvsAtEveryWindowSize) {
     // wrong mean or norm) is 1e-2 or more.
     EXPECT_LT(worst, 1e-5) << c.name;
   }
+  // A window smaller than the template has no place for it.
+  cv::Mat none;
+  correlateNormed(tex(cv::Rect(100, 80, 30, 20)), templ, &none);
+  EXPECT_TRUE(none.empty());
   // The patch itself is found where it was cut, at a full match.
   cv::Mat r;
   correlateNormed(tex(cv::Rect(98, 78, 44, 37)), templ, &r);

@@ -19,6 +19,10 @@ namespace imt {
 void correlateNormed(const cv::Mat& window, const cv::Mat& templ, cv::Mat* response) {
   constexpr int kDirectShifts = 40;
   const cv::Size shifts(window.cols - templ.cols + 1, window.rows - templ.rows + 1);
+  if (shifts.width < 1 || shifts.height < 1 || templ.empty()) {  // no place to put the template
+    response->release();
+    return;
+  }
   if (shifts.area() > kDirectShifts) {
     cv::matchTemplate(window, templ, *response, cv::TM_CCOEFF_NORMED);
     return;

@@ -138,13 +138,27 @@ inline bool topicHasSubscriber(const std::string& topic) {
   return false;
 }
 
+// Calls `name`, and once more if the call fails. roscpp's one-off service
+// calls fail now and then with the service up and answering (ros/ros_comm
+// issue 1976). CI met it twice here, with nothing in the manager's log:
+// add_region (2026-11-26) and add_planar_target (2026-11-28). A service that
+// died fails twice. The rare repeat of an add that did reach the tracker shows
+// as one item too many, which the tests that add count.
+template <class Srv>
+bool callService(const std::string& name, Srv& srv) {
+  if (ros::service::call(name, srv)) return true;
+  ROS_WARN("%s: the call failed; calling once more", name.c_str());
+  spinUntil([] { return false; }, 0.5);
+  return ros::service::call(name, srv);
+}
+
 // Pauses or resumes a `rosbag play --pause` started by launch/replay.launch
 // (its node is named `player`). False when the service is missing (the
 // player answers success=false when it already is in that state: not an error).
 inline bool setPlayerPaused(bool paused, const std::string& service = "/player/pause_playback") {
   std_srvs::SetBool srv;
   srv.request.data = paused;
-  return ros::service::waitForService(service, ros::Duration(30)) && ros::service::call(service, srv);
+  return ros::service::waitForService(service, ros::Duration(30)) && callService(service, srv);
 }
 
 }  // namespace test

@@ -93,7 +93,7 @@ TEST(AnchorNodelet, AddedThroughTheServiceMatchesGroundTruthOnTopicAndTf) {
   // the nodelet's outputs yet (a tf-only user): the refusal itself must make
   // it subscribe to its inputs, else the bag would not start playing.
   AddAnchor early = request(ros::Time(0), 0, 100, 100, 0);
-  ASSERT_TRUE(ros::service::call("add_anchor", early));
+  ASSERT_TRUE(imt::test::callService("add_anchor", early));
   EXPECT_FALSE(early.response.success);
   EXPECT_NE(early.response.message.find("retry shortly"), std::string::npos)
       << early.response.message;
@@ -118,7 +118,7 @@ TEST(AnchorNodelet, AddedThroughTheServiceMatchesGroundTruthOnTopicAndTf) {
   const Eigen::Vector3d t0(a0["t"][0], a0["t"][1], a0["t"][2]);
   AddAnchor add = request(stampOf(k0), 1, a0["pixel"][0].get<double>(),
                           a0["pixel"][1].get<double>(), t0.norm());
-  ASSERT_TRUE(ros::service::call("add_anchor", add));
+  ASSERT_TRUE(imt::test::callService("add_anchor", add));
   ASSERT_TRUE(add.response.success) << add.response.message;
   EXPECT_EQ(add.response.id, 1u);
 
@@ -136,22 +136,22 @@ TEST(AnchorNodelet, AddedThroughTheServiceMatchesGroundTruthOnTopicAndTf) {
       {request(ros::Time(5.0), 0, 10, 10, 0), "outside the motion-data cache"},
   };
   for (Bad& b : bad) {
-    ASSERT_TRUE(ros::service::call("add_anchor", b.req)) << "the service died on: " << b.expected;
+    ASSERT_TRUE(imt::test::callService("add_anchor", b.req)) << "the service died on: " << b.expected;
     EXPECT_FALSE(b.req.response.success) << b.expected;
     EXPECT_NE(b.req.response.message.find(b.expected), std::string::npos) << b.req.response.message;
   }
   RemoveRegion rm;
   rm.request.id = 99;
-  ASSERT_TRUE(ros::service::call("remove_anchor", rm));
+  ASSERT_TRUE(imt::test::callService("remove_anchor", rm));
   EXPECT_FALSE(rm.response.success);
   EXPECT_EQ(rm.response.message, "unknown anchor id 99");
   // A second anchor (id chosen, default depth) comes and goes.
   AddAnchor second = request(ros::Time(0), 0, 320, 400, 0);
-  ASSERT_TRUE(ros::service::call("add_anchor", second));
+  ASSERT_TRUE(imt::test::callService("add_anchor", second));
   ASSERT_TRUE(second.response.success) << second.response.message;
   EXPECT_EQ(second.response.id, 2u);
   rm.request.id = 2;
-  ASSERT_TRUE(ros::service::call("remove_anchor", rm));
+  ASSERT_TRUE(imt::test::callService("remove_anchor", rm));
   EXPECT_TRUE(rm.response.success) << rm.response.message;
 
   // Bad IMU samples among the bag's: a NaN one and one from the past are

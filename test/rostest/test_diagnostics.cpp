@@ -84,21 +84,14 @@ TEST(Diagnostics, RatesLatencyAndItemsByStatus) {
   add.request.y = f10["regions"][1]["box"][1];
   add.request.width = f10["regions"][1]["box"][2];
   add.request.height = f10["regions"][1]["box"][3];
-  // As the other rostests: the services are waited for before the first
-  // call (on a loaded CI machine this call once returned false with the
-  // service advertised 3 s before, and no error in the manager's log: a
-  // call that never reached the tracker is made once more).
+  // As the other rostests: the services are waited for before the first call.
   ASSERT_TRUE(ros::service::waitForService("add_region", ros::Duration(30)));
   ASSERT_TRUE(ros::service::waitForService("add_planar_target", ros::Duration(30)));
-  if (!ros::service::call("add_region", add)) {
-    std::printf("add_region: the call failed once; retrying\n");  // a service that died fails again
-    spinUntil([] { return false; }, 0.5);
-    ASSERT_TRUE(ros::service::call("add_region", add));
-  }
+  ASSERT_TRUE(imt::test::callService("add_region", add));
   ASSERT_TRUE(add.response.success) << add.response.message;
   const auto& p = f10["regions"][3]["box"];
   auto pt = imt::test::planarTargetRequest(stamp, cv::Rect2d(p[0], p[1], p[2], p[3]), 0.5f, 0.4f);
-  ASSERT_TRUE(ros::service::call("add_planar_target", pt));
+  ASSERT_TRUE(imt::test::callService("add_planar_target", pt));
   ASSERT_TRUE(pt.response.success) << pt.response.message;
 
   // Two full periods of playback after the adds (the bag lasts 4 s).
@@ -162,7 +155,7 @@ TEST(Diagnostics, RatesLatencyAndItemsByStatus) {
   // within a few periods (1 s each), naming it; the others stay OK.
   nodelet::NodeletUnload unload;
   unload.request.name = "/planar_targets";
-  ASSERT_TRUE(ros::service::call("/imt_manager/unload_nodelet", unload));
+  ASSERT_TRUE(imt::test::callService("/imt_manager/unload_nodelet", unload));
   ASSERT_TRUE(unload.response.success);
   const std::string gone = "graph_watchdog: planar_targets";
   diag.latest.clear();

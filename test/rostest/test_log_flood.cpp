@@ -371,7 +371,7 @@ TEST(LogFlood, EveryWarningIsThrottledPerCauseAndTheGraphLivesOn) {
   // --- the graph afterwards ----------------------------------------------------
   // Still whole: every nodelet loaded in the manager.
   nodelet::NodeletList list;
-  ASSERT_TRUE(ros::service::call("/imt_manager/list", list)) << "the manager does not answer";
+  ASSERT_TRUE(imt::test::callService("/imt_manager/list", list)) << "the manager does not answer";
   const std::set<std::string> loaded(list.response.nodelets.begin(), list.response.nodelets.end());
   for (const char* n : {"/motion_analysis", "/region_tracker", "/planar_targets", "/anchor_tracker"})
     EXPECT_TRUE(loaded.count(n)) << n << " is no longer loaded";
@@ -396,7 +396,7 @@ TEST(LogFlood, EveryWarningIsThrottledPerCauseAndTheGraphLivesOn) {
   add.request.x = 120;
   add.request.y = 90;
   add.request.width = add.request.height = 60;
-  ASSERT_TRUE(ros::service::call("/add_region", add));
+  ASSERT_TRUE(imt::test::callService("/add_region", add));
   ASSERT_TRUE(add.response.success) << add.response.message;
   const double added = last_good.toSec();
   auto tracked = [&] {

@@ -65,7 +65,7 @@ TEST(Params, NodeletWithABadParameterDoesNotStart) {
   // alone for a while (their load calls run at the same time as its).
   std::vector<std::string> loaded;
   spinUntil([] { return false; }, 3.0);
-  ASSERT_TRUE(ros::service::call("/manager/list", list));
+  ASSERT_TRUE(imt::test::callService("/manager/list", list));
   loaded = list.response.nodelets;
   EXPECT_NE(std::find(loaded.begin(), loaded.end(), "/good_tracker"), loaded.end());
   EXPECT_EQ(std::find(loaded.begin(), loaded.end(), "/misspelt_tracker"), loaded.end());
@@ -75,7 +75,7 @@ TEST(Params, NodeletWithABadParameterDoesNotStart) {
   // The manager and the good nodelet live on: its service answers.
   instant_motion_tracking::AddRegion add;
   add.request.width = add.request.height = 10;
-  ASSERT_TRUE(ros::service::call("add_region", add));
+  ASSERT_TRUE(imt::test::callService("add_region", add));
   EXPECT_FALSE(add.response.success);  // no frame yet: refused with a message
   EXPECT_FALSE(add.response.message.empty());
 }

@@ -89,7 +89,7 @@ TEST(PlanarTargetNodelet, PosterAddedThroughTheServiceMatchesGroundTruthOnTopicA
   const size_t k0 = frame_of[received.front().header.stamp];
   const nlohmann::json& t0 = truth["frames"][k0]["planar_targets"][0];
   AddPlanarTarget add = request(stampOf(k0), 0, t0["corners"], t0["size"][0], t0["size"][1]);
-  ASSERT_TRUE(ros::service::call("add_planar_target", add));
+  ASSERT_TRUE(imt::test::callService("add_planar_target", add));
   ASSERT_TRUE(add.response.success) << add.response.message;
   const uint32_t id = add.response.id;
   // Frames published before the add carry no target (it is tracked through
@@ -114,13 +114,13 @@ TEST(PlanarTargetNodelet, PosterAddedThroughTheServiceMatchesGroundTruthOnTopicA
       {request(ros::Time(5.0), 0, t0["corners"], 0.3f, 0.2f), "outside the motion-data cache"},
   };
   for (Bad& b : bad) {
-    ASSERT_TRUE(ros::service::call("add_planar_target", b.req)) << "the service died on: " << b.expected;
+    ASSERT_TRUE(imt::test::callService("add_planar_target", b.req)) << "the service died on: " << b.expected;
     EXPECT_FALSE(b.req.response.success) << b.expected;
     EXPECT_NE(b.req.response.message.find(b.expected), std::string::npos) << b.req.response.message;
   }
   RemoveRegion rm;
   rm.request.id = 99;
-  ASSERT_TRUE(ros::service::call("remove_planar_target", rm));
+  ASSERT_TRUE(imt::test::callService("remove_planar_target", rm));
   EXPECT_FALSE(rm.response.success);
   EXPECT_NE(rm.response.message.find("99"), std::string::npos) << rm.response.message;
 
@@ -185,7 +185,7 @@ TEST(PlanarTargetNodelet, PosterAddedThroughTheServiceMatchesGroundTruthOnTopicA
 
   // Removed: the next frames carry no target.
   rm.request.id = id;
-  ASSERT_TRUE(ros::service::call("remove_planar_target", rm));
+  ASSERT_TRUE(imt::test::callService("remove_planar_target", rm));
   EXPECT_TRUE(rm.response.success) << rm.response.message;
 }
 
@@ -220,18 +220,18 @@ TEST(PlanarTargetNodelet, ImageTargetFoundThroughTheService) {
   AddImageTarget add;
   add.request.width_m = 0.6f;
   add.request.height_m = 0.45f;
-  ASSERT_TRUE(ros::service::call("add_image_target", add));
+  ASSERT_TRUE(imt::test::callService("add_image_target", add));
   EXPECT_FALSE(add.response.success);
   EXPECT_NE(add.response.message.find("no picture"), std::string::npos) << add.response.message;
   add.request.image_path = dir + "/missing.png";
-  ASSERT_TRUE(ros::service::call("add_image_target", add));
+  ASSERT_TRUE(imt::test::callService("add_image_target", add));
   EXPECT_FALSE(add.response.success);
   EXPECT_NE(add.response.message.find("cannot read image"), std::string::npos) << add.response.message;
   add.request.image_path = "";
   add.request.image.encoding = "bogus";
   add.request.image.width = add.request.image.height = add.request.image.step = 4;
   add.request.image.data.assign(16, 0);
-  ASSERT_TRUE(ros::service::call("add_image_target", add));
+  ASSERT_TRUE(imt::test::callService("add_image_target", add));
   EXPECT_FALSE(add.response.success);
   EXPECT_NE(add.response.message.find("bogus"), std::string::npos) << add.response.message;
 
@@ -241,7 +241,7 @@ TEST(PlanarTargetNodelet, ImageTargetFoundThroughTheService) {
   add.request.image.height = picture.rows;
   add.request.image.step = picture.cols;
   add.request.image.data.assign(picture.data, picture.data + picture.total());
-  ASSERT_TRUE(ros::service::call("add_image_target", add));
+  ASSERT_TRUE(imt::test::callService("add_image_target", add));
   ASSERT_TRUE(add.response.success) << add.response.message;
   const uint32_t id = add.response.id;
   const size_t k_added = scene.frame_of[received.back().header.stamp];
@@ -286,7 +286,7 @@ TEST(PlanarTargetNodelet, ImageTargetFoundThroughTheService) {
 
   RemoveRegion rm;
   rm.request.id = id;
-  ASSERT_TRUE(ros::service::call("remove_planar_target", rm));
+  ASSERT_TRUE(imt::test::callService("remove_planar_target", rm));
   EXPECT_TRUE(rm.response.success) << rm.response.message;
   std::system(("rm -rf " + dir).c_str());
 }

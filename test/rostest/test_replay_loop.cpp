@@ -164,7 +164,7 @@ TEST(ReplayLoop, SecondPassTrackedAsWellAsTheFirst) {
     add.request.y = b.y;
     add.request.width = b.width;
     add.request.height = b.height;
-    ASSERT_TRUE(ros::service::call("add_region", add));
+    ASSERT_TRUE(imt::test::callService("add_region", add));
     ASSERT_TRUE(add.response.success) << add.response.message;
     // The static patch is a fronto-parallel rectangle: its box corners are
     // its corners (used for tf only; its accuracy is tested elsewhere). Given
@@ -172,7 +172,7 @@ TEST(ReplayLoop, SecondPassTrackedAsWellAsTheFirst) {
     const size_t kPatchGiven = 10;
     AddPlanarTarget pt =
         imt::test::planarTargetRequest(truth.stamp(kPatchGiven), truth.box(kPatchGiven, kPatch), 0.5f, 0.4f);
-    ASSERT_TRUE(ros::service::call("add_planar_target", pt));
+    ASSERT_TRUE(imt::test::callService("add_planar_target", pt));
     ASSERT_TRUE(pt.response.success) << pt.response.message;
   };
 

@@ -231,13 +231,13 @@ TEST(ReplayVsTrackBag, LiveOutputsAgreeWithTrackBag) {
   anchor.request.id = 9;
   anchor.request.u = px + pw / 2;
   anchor.request.v = py + ph / 2;
-  ASSERT_TRUE(ros::service::call("add_region", add));
+  ASSERT_TRUE(imt::test::callService("add_region", add));
   ASSERT_TRUE(add.response.success) << add.response.message;
   const size_t regions_at_add = got.regions.size();
-  ASSERT_TRUE(ros::service::call("add_planar_target", target));
+  ASSERT_TRUE(imt::test::callService("add_planar_target", target));
   ASSERT_TRUE(target.response.success) << target.response.message;
   const size_t targets_at_add = got.targets.size();
-  ASSERT_TRUE(ros::service::call("add_anchor", anchor));
+  ASSERT_TRUE(imt::test::callService("add_anchor", anchor));
   ASSERT_TRUE(anchor.response.success) << anchor.response.message;
   const size_t anchors_at_add = got.anchors.size();
 
@@ -259,7 +259,7 @@ TEST(ReplayVsTrackBag, LiveOutputsAgreeWithTrackBag) {
     if (live_regions.count(key(stampOf(k)))) continue;
     SeekRegions seek;
     seek.request.stamp = stampOf(k);
-    ASSERT_TRUE(ros::service::call("seek_regions", seek));
+    ASSERT_TRUE(imt::test::callService("seek_regions", seek));
     ASSERT_TRUE(seek.response.success) << "frame " << k << ": " << seek.response.message;
     ASSERT_EQ(seek.response.regions.regions.size(), 1u);
     live_regions[key(stampOf(k))] = rowOf(seek.response.regions.regions[0]);

@@ -75,7 +75,7 @@ TEST(TrackerServices, AddInThePastBadRequestsAndSeek) {
   add.request.y = b30.y;
   add.request.width = b30.width;
   add.request.height = b30.height;
-  ASSERT_TRUE(ros::service::call("add_region", add));
+  ASSERT_TRUE(imt::test::callService("add_region", add));
   EXPECT_TRUE(add.response.success) << add.response.message;
   const uint32_t id = add.response.id;
   EXPECT_GT(id, 0u);
@@ -103,13 +103,13 @@ TEST(TrackerServices, AddInThePastBadRequestsAndSeek) {
     r.request.height = b.h;
     r.request.id = b.id;
     r.request.stamp = b.stamp;
-    ASSERT_TRUE(ros::service::call("add_region", r)) << "the service died on: " << b.expected;
+    ASSERT_TRUE(imt::test::callService("add_region", r)) << "the service died on: " << b.expected;
     EXPECT_FALSE(r.response.success) << b.expected;
     EXPECT_NE(r.response.message.find(b.expected), std::string::npos) << r.response.message;
   }
   RemoveRegion rm;
   rm.request.id = 999;
-  ASSERT_TRUE(ros::service::call("remove_region", rm));
+  ASSERT_TRUE(imt::test::callService("remove_region", rm));
   EXPECT_FALSE(rm.response.success);
   EXPECT_NE(rm.response.message.find("unknown region id 999"), std::string::npos) << rm.response.message;
   AddPlanarTarget pt;
@@ -120,7 +120,7 @@ TEST(TrackerServices, AddInThePastBadRequestsAndSeek) {
     pt.request.corners[i].x = bowtie[i][0];
     pt.request.corners[i].y = bowtie[i][1];
   }
-  ASSERT_TRUE(ros::service::call("add_planar_target", pt));
+  ASSERT_TRUE(imt::test::callService("add_planar_target", pt));
   EXPECT_FALSE(pt.response.success);
   EXPECT_NE(pt.response.message.find("convex"), std::string::npos) << pt.response.message;
 
@@ -161,18 +161,18 @@ TEST(TrackerServices, AddInThePastBadRequestsAndSeek) {
   // Random access: the state at frame 10, before the region was given.
   SeekRegions seek;
   seek.request.stamp = stampOf(10);
-  ASSERT_TRUE(ros::service::call("seek_regions", seek));
+  ASSERT_TRUE(imt::test::callService("seek_regions", seek));
   ASSERT_TRUE(seek.response.success) << seek.response.message;
   ASSERT_EQ(seek.response.regions.regions.size(), 1u);
   EXPECT_EQ(seek.response.regions.header.stamp, stampOf(10));
   const auto& s = seek.response.regions.regions[0];
   EXPECT_GT(iou(clip(cv::Rect2d(s.x, s.y, s.width, s.height)), clip(truthBox(truth, 10, kCard))), 0.85);
   seek.request.stamp = ros::Time(1.0);
-  ASSERT_TRUE(ros::service::call("seek_regions", seek));
+  ASSERT_TRUE(imt::test::callService("seek_regions", seek));
   EXPECT_FALSE(seek.response.success);
   seek.request.stamp = stampOf(10);
   seek.request.ids = {id + 100};
-  ASSERT_TRUE(ros::service::call("seek_regions", seek));
+  ASSERT_TRUE(imt::test::callService("seek_regions", seek));
   EXPECT_FALSE(seek.response.success);
   EXPECT_NE(seek.response.message.find("unknown region id"), std::string::npos);
 }

@@ -11,14 +11,20 @@
 # change, 0 to skip).
 set -euo pipefail
 source "$(dirname "$0")/setup.sh"
+# Each stage's wall time, to see where the ~30 minutes go.
+stage_start=$SECONDS
+stage_done() { echo "[imt] $1: $((SECONDS - stage_start)) s"; stage_start=$SECONDS; }
 imt_install
 imt_env
+stage_done "set-up"
 imt_build all tests
+stage_done "build"
 
 results="$IMT_BUILD_DIR/test_results"
 rm -rf "$results"
 status=0
 (cd "$IMT_BUILD_DIR" && ctest --output-on-failure -j"$(nproc)" "$@") || status=$?
+stage_done "ctest"
 
 # One more test case in the JUnit results: junit_case SUITE NAME STATUS MESSAGE
 # (STATUS 0 passes; else MESSAGE is the failure's).
@@ -44,6 +50,7 @@ if [ $# -eq 0 ] && [ "${IMT_SANITIZE_TESTS:-1}" != 0 ]; then
   sanitize_status=0
   "$IMT_ROOT/scripts/sanitize.sh" >"$IMT_BUILD_DIR/sanitize.log" 2>&1 || sanitize_status=$?
   cat "$IMT_BUILD_DIR/sanitize.log"
+  stage_done "sanitizers (build and tests)"
   junit_case sanitize CoreAndIoTestsUnderAsanAndUbsan "$sanitize_status" \
     "scripts/sanitize.sh failed (exit $sanitize_status); see sanitize.log"
   [ "$sanitize_status" -eq 0 ] || status=1
@@ -54,6 +61,7 @@ if [ $# -eq 0 ] && [ "${IMT_SANITIZE_TESTS:-1}" != 0 ]; then
     fuzz_status=0
     "$IMT_ROOT/scripts/fuzz.sh" "$fuzz_cases" >"$IMT_BUILD_DIR/fuzz.log" 2>&1 || fuzz_status=$?
     cat "$IMT_BUILD_DIR/fuzz.log"
+    stage_done "fuzz"
     junit_case fuzz "TrackBagOn${fuzz_cases}MutatedBagsAndInitFiles" "$fuzz_status" \
       "scripts/fuzz.sh $fuzz_cases failed (exit $fuzz_status); see fuzz.log"
     [ "$fuzz_status" -eq 0 ] || status=1
@@ -69,6 +77,7 @@ if [ $# -eq 0 ] && [ "$soak_minutes" -gt 0 ]; then
   "$IMT_ROOT/scripts/soak.sh" "$soak_minutes" --no-build --out "$IMT_BUILD_DIR/soak" \
     >"$IMT_BUILD_DIR/soak.log" 2>&1 || soak_status=$?
   cat "$IMT_BUILD_DIR/soak.log"
+  stage_done "soak"
   junit_case soak "LiveGraphUnderLoad${soak_minutes}Minutes" "$soak_status" \
     "scripts/soak.sh $soak_minutes failed (exit $soak_status); see soak.log"
   [ "$soak_status" -eq 0 ] || status=1

@@ -9,13 +9,15 @@ While a looped bag plays into launch/tracking.launch, this node:
   processed and dropped frames, from /diagnostics) and the messages out on
   motion_data, regions, planar_targets and anchors;
 - reads the manager's resident memory (/proc/<pid>/status VmRSS) every
-  second, and reports each minute's peak;
+  second, and reports each minute's peak and median;
 - reads each nodelet's processing time (mean and max) and resets from
   /diagnostics, and graph_watchdog's verdicts.
 
 It prints one line per minute and exits non-zero (with the reasons) when an
 output got no message in a minute, the manager's memory grew more than 20%
-after the second minute (peak to peak), or graph_watchdog reported a nodelet that is not
+after the second minute (median to median: a stall of a second or two on a
+loaded machine fills the queues and lifts a minute's peak by as much, a leak
+lifts the whole minute), or graph_watchdog reported a nodelet that is not
 loaded (or the manager died).
 
   soak_monitor.py --minutes M --truth T.json --init INIT.yaml --manager-pid PID
@@ -140,24 +142,26 @@ def main():
     last = {}
     t0 = time.monotonic()
     minute = 0
-    print("| minute | frames in (dropped) | motion_data | regions | planar_targets | anchors | manager RSS peak (MB) "
+    print("| minute | frames in (dropped) | motion_data | regions | planar_targets | anchors | manager RSS peak / median (MB) "
           "| processing mean/max (ms): motion, regions, planar, anchors | resets | watchdog |", flush=True)
     print("|---|---|---|---|---|---|---|---|---|---|", flush=True)
     while minute < args.minutes:
         next_at = t0 + 60.0 * (minute + 1)
-        # The RSS sampled each second, its peak kept: the caches fill and
-        # empty with each loop of the bag, so one sample is as much phase as
-        # growth.
-        rss, sampled_at = None, 0.0
+        # The RSS sampled each second: the caches fill and empty with each
+        # loop of the bag, so one sample is as much phase as growth.
+        samples, gone, sampled_at = [], False, 0.0
         while time.monotonic() < next_at:
             mon.add_due_items()
             if time.monotonic() - sampled_at >= 1.0:
                 sampled_at = time.monotonic()
                 now = rss_mb(args.manager_pid)
-                rss = None if now is None else max(rss or 0.0, now)
                 if now is None:
+                    gone = True
                     break
+                samples.append(now)
             time.sleep(0.05)
+        rss = None if gone or not samples else sorted(samples)[len(samples) // 2]  # the median
+        peak = max(samples) if samples else None
         minute += 1
         m, counters = mon.take_minute()
 
@@ -172,7 +176,7 @@ def main():
         wd = "; ".join("%s: %s" % kv for kv in sorted(m.watchdog_errors.items())) or "OK"
         print("| %d | %s (%s) | %s | %s | %s | %s | %s | %s | %s | %s |" % (
             minute, frames, dropped, *(m.out[o] for o in OUTPUTS),
-            "gone" if rss is None else "%.1f" % rss, proc, resets, wd), flush=True)
+            "gone" if rss is None else "%.1f / %.1f" % (peak, rss), proc, resets, wd), flush=True)
         if rss is None:
             failures.append("minute %d: the manager (pid %d) is gone" % (minute, args.manager_pid))
             break
@@ -184,7 +188,7 @@ def main():
         if minute == 2:
             rss2 = rss
         elif rss2 and rss > (1 + RSS_GROWTH) * rss2:
-            failures.append("minute %d: manager RSS %.1f MB, more than %d%% over minute 2's %.1f MB" % (
+            failures.append("minute %d: manager RSS median %.1f MB, more than %d%% over minute 2's %.1f MB" % (
                 minute, rss, RSS_GROWTH * 100, rss2))
         if failures:
             break

@@ -163,7 +163,7 @@ TEST(LogFlood, EveryWarningIsThrottledPerCauseAndTheGraphLivesOn) {
       "/rosout", 100000, [&](const rosgraph_msgs::LogConstPtr& m) {
         if (m->name == self) return;
         std::lock_guard<std::mutex> lock(mutex);
-        lines.push_back({m->header.stamp.toSec(), m->level, m->name, m->msg});
+        lines.push_back({m->header.stamp.toSec(), static_cast<uint8_t>(m->level), m->name, m->msg});
       });
   // Outputs listened to: the nodelets subscribe to their inputs only then.
   std::atomic<double> newest_motion{0}, newest_anchors{0}, newest_targets{0};

@@ -7,7 +7,7 @@
 namespace imt {
 
 // cv::matchTemplate(window, templ, *response, cv::TM_CCOEFF_NORMED), both
-// CV_32F; computed shift by shift when there are few shifts. Empty when the
+// CV_32F; computed shift by shift where that costs less. Empty when the
 // window is smaller than the template.
 void correlateNormed(const cv::Mat& window, const cv::Mat& templ, cv::Mat* response);
 

@@ -5,8 +5,9 @@
 # minutes. scripts/soak_monitor.py adds the scene's items (again after each
 # loop), prints a line per minute (frames in, messages out per output, the
 # manager's RSS, processing time mean/max, resets, graph_watchdog's verdict)
-# and fails the run when an output stops, the manager's RSS (each minute's median) grows more than
-# 20% after the second minute, or a nodelet is unloaded.
+# and fails the run when an output stops, the manager's RSS (each minute's
+# median) grows more than 20% after the second minute, or a nodelet is
+# unloaded.
 #   scripts/soak.sh MINUTES [--rate R] [--load N] [--out DIR] [--no-build] [--launch-arg NAME:=VALUE ...]
 # --load N: busy loops (default: one per core; 0 = none). --launch-arg goes to
 # replay.launch (e.g. bond_heartbeat_disabled:=false, ROS's bond default).

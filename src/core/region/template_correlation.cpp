@@ -27,11 +27,11 @@ void correlateNormed(const cv::Mat& window, const cv::Mat& templ, cv::Mat* respo
     response->release();
     return;
   }
-  if (static_cast<double>(shifts.area()) * static_cast<double>(templ.total()) > kDirectProducts) {
+  const double n = static_cast<double>(templ.total());
+  if (shifts.area() * n > kDirectProducts) {
     cv::matchTemplate(window, templ, *response, cv::TM_CCOEFF_NORMED);
     return;
   }
-  const double n = static_cast<double>(templ.total());
   cv::Mat centred;
   cv::subtract(templ, cv::mean(templ), centred);
   const double templ_norm = std::sqrt(centred.dot(centred));

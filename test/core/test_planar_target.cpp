@@ -371,9 +371,9 @@ TEST(PlanarEcc, FindsAKnownWarpAsFindTransformEccDoes) {
   // Farthest a template corner lands from where `C` puts it.
   auto cornerError = [&](const Eigen::Matrix3d& C, const Eigen::Matrix3d& truth) {
     double worst = 0;
-    for (const Eigen::Vector3d x : {Eigen::Vector3d(0, 0, 1), Eigen::Vector3d(tpl.cols - 1, 0, 1),
-                                    Eigen::Vector3d(tpl.cols - 1, tpl.rows - 1, 1),
-                                    Eigen::Vector3d(0, tpl.rows - 1, 1)})
+    for (const Eigen::Vector3d& x : {Eigen::Vector3d(0, 0, 1), Eigen::Vector3d(tpl.cols - 1, 0, 1),
+                                     Eigen::Vector3d(tpl.cols - 1, tpl.rows - 1, 1),
+                                     Eigen::Vector3d(0, tpl.rows - 1, 1)})
       worst = std::max(worst, ((C * x).hnormalized() - (truth * x).hnormalized()).norm());
     return worst;
   };

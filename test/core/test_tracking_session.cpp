@@ -424,7 +424,6 @@ TEST(TrackingSession, LiveAndOfflineAgreeOnCards) {
   items.region = truth.regions[1].box;
   const cv::Rect2d patch = truth.regions[3].box;
   FrameTruth::Target t;
-  t.T_cam_target = Eigen::Isometry3d::Identity();  // not used here; set, not copied uninitialised
   t.corners = {patch.tl(), cv::Point2d(patch.br().x, patch.y), patch.br(), cv::Point2d(patch.x, patch.br().y)};
   t.width_m = 0.5;
   t.height_m = 0.4;

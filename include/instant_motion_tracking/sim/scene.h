@@ -287,7 +287,8 @@ struct FrameTruth {
   struct Target {
     uint32_t id = 0;
     std::array<cv::Point2d, 4> corners;  // TL, TR, BR, BL projections
-    Eigen::Isometry3d T_cam_target;      // spec pose: origin centre, x TL->TR, y TL->BL
+    // spec pose: origin centre, x TL->TR, y TL->BL
+    Eigen::Isometry3d T_cam_target = Eigen::Isometry3d::Identity();
     double width_m = 0, height_m = 0;
     double visible_fraction = 0;   // of the projected target's area inside the image
     double occluded_fraction = 0;  // of its in-image area hidden by nearer planes
@@ -299,7 +300,8 @@ struct FrameTruth {
                                      //   meaningless when behind the camera)
     bool in_view = false;            // in front of the camera and inside the image
     bool placed = false;             // stamp >= placement time
-    Eigen::Isometry3d T_cam_anchor;  // spec anchor frame in the camera optical frame
+    // spec anchor frame in the camera optical frame
+    Eigen::Isometry3d T_cam_anchor = Eigen::Isometry3d::Identity();
   };
   std::vector<Anchor> anchors;
 };

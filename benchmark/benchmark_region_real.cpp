@@ -9,7 +9,7 @@
 // IoU, precision at 20 px, and frames/s (tracking only, decoding excluded).
 // Single-threaded (cv::setNumThreads(1)).
 //
-//   make -C _build benchmarks && taskset -c 0 _build/benchmark/benchmark_region_real [--ours-only] [--no-appearance] [--set option=value] [--trace] [--starts N] [sequence...]
+//   make -C _build benchmarks && taskset -c 0 _build/benchmark/benchmark_region_real [--ours-only] [--no-appearance] [--set option=value] [--trace] [--trace-peers] [--starts N] [sequence...]
 #include "instant_motion_tracking/core/tracking_session.h"
 #include "instant_motion_tracking/io/config.h"
 #include "set_option.h"
@@ -86,6 +86,9 @@ Row runFromStarts(const imt::test::BoxSequence& seq, int runs, const std::functi
 
 // --trace: one line per frame of this package's run on stderr.
 bool g_trace = false;
+// --trace-peers: the same for the peers (their box, IoU and whether they
+// reported one).
+bool g_trace_peers = false;
 // The options of this package's run: the defaults, with --no-appearance
 // (regions on motion data alone, the paper's tracker) and --set
 // name=value (a region_tracking option, read as config YAML is).
@@ -129,6 +132,10 @@ Row runPeer(const imt::test::BoxSequence& seq, const std::vector<cv::Mat>& colou
     cv::Rect r;
     const bool ok = t->update(colour[f - 1], r);
     *box = cv::Rect2d(r);
+    if (g_trace_peers)
+      std::fprintf(stderr, "%s %d peer iou %.2f %s box %d %d %d %d truth %.0f %.0f %.0f %.0f\n", seq.name().c_str(), f,
+                   imt::test::iouClipped(*box, seq.box(f), colour[0].size()), ok ? "ok" : "failed", r.x, r.y, r.width,
+                   r.height, seq.box(f).x, seq.box(f).y, seq.box(f).width, seq.box(f).height);
     return ok;
   });
 }
@@ -152,6 +159,7 @@ int main(int argc, char** argv) {
       if (!imt::bench::setRegionOption(argv[++i], &g_config)) return 2;
     }
     else if (a == "--trace") g_trace = ours_only = true;
+    else if (a == "--trace-peers") g_trace_peers = true;
     else if (a == "--starts" && i + 1 < argc) {
       starts = std::atoi(argv[++i]);
       if (starts < 1) {

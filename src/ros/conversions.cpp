@@ -66,6 +66,7 @@ instant_motion_tracking::MotionData toMsg(const MotionData& md, const std_msgs::
   m.background_weight.resize(n);
   m.foreground.resize(n);
   m.age.resize(n);
+  m.patch_error.resize(n);
   for (size_t i = 0; i < n; ++i) {
     const FeatureMotion& f = md.features[i];
     m.ids[i] = f.id;
@@ -76,6 +77,7 @@ instant_motion_tracking::MotionData toMsg(const MotionData& md, const std_msgs::
     m.background_weight[i] = f.bg_weight;
     m.foreground[i] = f.foreground ? 1 : 0;
     m.age[i] = f.age;
+    m.patch_error[i] = f.patch_error;
   }
   return m;
 }
@@ -111,6 +113,9 @@ MotionData fromMsg(const instant_motion_tracking::MotionData& m) {
     f.bg_weight = m.background_weight[i];
     f.foreground = m.foreground[i] != 0;
     f.age = m.age[i];
+    // Optional (empty from publishers before it); unknown is 0.
+    if (i < m.patch_error.size() && std::isfinite(m.patch_error[i]) && m.patch_error[i] > 0)
+      f.patch_error = m.patch_error[i];
     md.features.push_back(f);
   }
   return md;

@@ -231,11 +231,14 @@ TEST(RegionFailureClass, TargetMovingWithTheCamera) {
   std::printf("region_follow: given at frame %d: mean IoU %.3f over %d frames (goal %.2f)\n",
               t.start, iou, n, kGoal);
   EXPECT_GT(n, 200);
-  // Measured 0.939 (seeds 2-4: 0.950, 0.952, 0.879) since the motion fit is
+  // Measured 0.974 (seeds 2-4: 0.973, 0.973, 0.968) since features are
+  // weighed by how well their LK windows matched (the road's edge features
+  // behind the target no longer stretch its box); floor raised from 0.89.
+  // 0.939 (0.950, 0.952, 0.879) since the motion fit is
   // made again from the inliers alone; 0.940 (0.928, 0.949, 0.873; before the background
   // memory 0.923: 0.932, 0.939, 0.880), drifting slowly (IoU 0.98 at
   // 0.7 s, 0.89 at 7 s). Goal 0.85.
-  EXPECT_GE(iou, 0.89);
+  EXPECT_GE(iou, 0.92);
 }
 
 // 3. A static wall patch that a moving card partly covers at the init frame
@@ -255,8 +258,9 @@ TEST(RegionFailureClass, StaticPatchPartlyCoveredAtInit) {
       "mean IoU %.3f over %d frames (goal %.2f)\n",
       100 * r0->occluded_fraction, uncovered, iou, n, kGoal);
   EXPECT_GT(n, 150);
-  // Measured 0.932 (seeds 2-4: 0.947, 0.946, 0.952) since the motion fit is
-  // made again from the inliers alone; 0.945 (0.954, 0.959, 0.951) before:
+  // Measured 0.930 (seeds 2-4: 0.953, 0.938, 0.939) since features are
+  // weighed by how well their LK windows matched; 0.932 (0.947, 0.946,
+  // 0.952) since the motion fit is made again from the inliers alone; 0.945 (0.954, 0.959, 0.951) before:
   // the region stays on the patch.
   // Goal 0.85.
   EXPECT_GE(iou, 0.88);
@@ -278,7 +282,14 @@ TEST(RegionFailureClass, GivenMidSequenceBothWays) {
       t.start, backward, nb, forward, nf, kGoal);
   EXPECT_GT(nb, 100);
   EXPECT_GT(nf, 100);
-  // Measured backward 0.823, forward 0.810 (seeds 2-4: 0.829 / 0.811,
+  // Measured backward 0.864, forward 0.874 (seeds 2-4: 0.863 / 0.869,
+  // 0.857 / 0.887, 0.859 / 0.764; seeds 5-8 backward 0.860-0.874, forward
+  // 0.849-0.910) since features are weighed by how well their LK windows
+  // matched: those straddling the card's edges and the wall it uncovers
+  // lagged the card and grew its box (139 -> 164 px over frames 120-90
+  // backward against the card's 139 -> 144); floors raised from 0.78 /
+  // 0.77. On seed 4 the forward half still loses the card's roll.
+  // Before: 0.823 / 0.810 (0.829 / 0.811,
   // 0.812 / 0.845, 0.818 / 0.712) since the motion fit is made again from
   // the inliers alone (the wall around the card, fitting it worse, pulled
   // its scale); before 0.817 / 0.800. Earlier 0.817 / 0.796 (seeds 2-4: 0.823 / 0.802,
@@ -290,8 +301,8 @@ TEST(RegionFailureClass, GivenMidSequenceBothWays) {
   // spoils). Forward 0.819 when a firmly carried region's look was also
   // matched at 5% either side of its size; on motion data alone 0.832 /
   // 0.802. Floors 0.05 under. Goal 0.85 each.
-  EXPECT_GE(backward, 0.78);
-  EXPECT_GE(forward, 0.77);
+  EXPECT_GE(backward, 0.81);
+  EXPECT_GE(forward, 0.82);
 }
 
 // 5. A target hidden completely (behind an opaque panel) for 2 s and then
@@ -326,7 +337,13 @@ TEST(RegionFailureClass, HiddenFor2sThenBack) {
   EXPECT_NEAR((hidden_to - hidden_from) / fps, 2.0, 0.2);
   EXPECT_GT(nb, 30);
   EXPECT_GT(na, 30);
-  // Measured before 0.879, after 0.864 (seeds 2-4: 0.885 / 0.930, 0.882 /
+  // Measured before 0.897, after 0.913 (seeds 2-4: 0.894 / 0.910, 0.889 /
+  // 0.933, 0.884 / 0.903; seeds 5-8 after 0.876-0.905) since features are
+  // weighed by how well their LK windows matched and the look at placement
+  // is searched for over the whole frame at 1.2 times smaller and larger
+  // too, in turn (seed 3 with the weighing alone: after 0.475, the card back
+  // 18% smaller than its box found 40 frames late); floors raised from
+  // 0.81 / 0.83. Before: 0.879 / 0.864 (0.885 / 0.930, 0.882 /
   // 0.884, 0.889 / 0.904) since the motion fit is made again from the
   // inliers alone. Before 0.865, after 0.878 (seeds 2-4: 0.890 / 0.911, 0.885 /
   // 0.884, 0.890 / 0.920) since the look sizes a region its features carry
@@ -358,8 +375,8 @@ TEST(RegionFailureClass, HiddenFor2sThenBack) {
   // placement and a wider scale range it was found 20 frames later, or never
   // (after 0.743; seeds 2-4: 0.000, 0.504, 0.140). Floors 0.05 under. Goal
   // 0.85 each.
-  EXPECT_GE(before, 0.81);
-  EXPECT_GE(again, 0.83);
+  EXPECT_GE(before, 0.84);
+  EXPECT_GE(again, 0.86);
 }
 
 // With many regions (region_tracking.appearance_budget, 8 by default) a
@@ -376,7 +393,9 @@ TEST(RegionFailureClass, TargetAmong99OtherRegions) {
     int n = 0;
     const double iou = t.meanIou(0, static_cast<int>(t.truth.size()), &n);
     std::printf("region_static_covered among 99 other regions: mean IoU %.3f over %d frames\n", iou, n);
-    // Measured 0.933 (seeds 2-4: 0.947, 0.946, 0.954), as alone (0.932),
+    // Measured 0.930 (seeds 2-4: 0.953, 0.937, 0.939), as alone, since
+    // features are weighed by how well their LK windows matched; 0.933
+    // (0.947, 0.946, 0.954), as alone (0.932),
     // since the motion fit is made again from the inliers alone; 0.945
     // (0.955, 0.959, 0.951) before;
     // 0.935 while regions in doubt took a look on every frame. Floor 0.05 under.
@@ -395,7 +414,11 @@ TEST(RegionFailureClass, TargetAmong99OtherRegions) {
     const double again = t.meanIou(back + static_cast<int>(std::lround(0.5 * t.scene->options().fps)), frames, &n);
     std::printf("region_hidden among 99 other regions: mean IoU from 0.5 s after it is back %.3f over %d frames\n",
                 again, n);
-    // Measured 0.865 (seeds 2-4: 0.940, 0.940, 0.919) since the motion fit
+    // Measured 0.888 (seeds 2-4: 0.902, 0.907, 0.927; seeds 5-8 0.965,
+    // 0.799, 0.834, 0.788 against 0.816, 0.709, 0.747, 0.784 before) since
+    // features are weighed by how well their LK windows matched and the look
+    // at placement is searched for at 1.2 times smaller and larger too;
+    // floor raised to 0.83 then. 0.865 (0.940, 0.940, 0.919) since the motion fit
     // is made again from the inliers alone; floor raised to 0.81 then.
     // 0.851 (0.811, 0.938, 0.838) with a look's window
     // halved first; 0.855 (0.805, 0.937, 0.831; alone 0.818, 0.809,
@@ -412,7 +435,7 @@ TEST(RegionFailureClass, TargetAmong99OtherRegions) {
     // rode the panel (0.561); with the searches around its last place also
     // on turns only after the first 10 frames lost, never found (0.000).
     // Floor 0.05 under.
-    EXPECT_GE(again, 0.81);
+    EXPECT_GE(again, 0.83);
   }
 }
 

@@ -58,7 +58,11 @@ TEST_P(RegionReal, FirstFrameBoxIsFollowed) {
   EXPECT_GE(score.successAuc(), c.min_auc);
 }
 
-// Measured success AUC (2026-11-27, late, the motion fit made again from
+// Measured success AUC (2026-11-28, features weighed by how well their LK
+// windows matched): car1 0.775, boat1 0.812, Human3 0.117, V25_2 0.838,
+// V24_7 0.873 (8 nudged starts: car1 0.776, 0.741..0.798; boat1 0.809;
+// Human3 0.107); car1's floor raised from 0.65 to 0.70.
+// Before (2026-11-27, late, the motion fit made again from
 // the inliers alone): car1 0.767, boat1 0.817, Human3 0.128, V25_2 0.844,
 // V24_7 0.869 (8 nudged starts: car1 0.762, boat1 0.812).
 // Before (2026-11-27, night, the look sizing a region its
@@ -79,9 +83,10 @@ TEST_P(RegionReal, FirstFrameBoxIsFollowed) {
 // half its figure): a change that loses a target on real video shows here.
 // car1 is sensitive to the last bit of the pixels (from libjpeg's own gray
 // decode instead of cvtColor it scored 0.602 before that change; its 8
-// nudged starts now span 0.720..0.771), so its floor is 0.65.
+// nudged starts then spanned 0.720..0.771; now 0.741..0.798), so its floor
+// is 0.70, further under it than the others'.
 INSTANTIATE_TEST_SUITE_P(Sequences, RegionReal,
-                         ::testing::Values(RealCase{"vot2015_car1", 0.65}, RealCase{"uav123_10fps_boat1", 0.74},
+                         ::testing::Values(RealCase{"vot2015_car1", 0.70}, RealCase{"uav123_10fps_boat1", 0.74},
                                            RealCase{"otb_human3_first199", 0.07},
                                            RealCase{"pot210_V25_2", 0.79}, RealCase{"pot210_V24_7", 0.81}),
                          [](const ::testing::TestParamInfo<RealCase>& info) {

@@ -31,6 +31,7 @@ TEST(Conversions, MotionDataRoundTrip) {
     f.bg_weight = 0.2f * i;
     f.foreground = i % 2;
     f.age = static_cast<uint16_t>(3 * i);
+    f.patch_error = 1.5f * i;
     md.features.push_back(f);
   }
   std_msgs::Header h;
@@ -49,6 +50,7 @@ TEST(Conversions, MotionDataRoundTrip) {
     EXPECT_FLOAT_EQ(back.features[i].dy, md.features[i].dy);
     EXPECT_EQ(back.features[i].foreground, md.features[i].foreground);
     EXPECT_EQ(back.features[i].age, md.features[i].age);
+    EXPECT_FLOAT_EQ(back.features[i].patch_error, md.features[i].patch_error);
   }
 }
 
@@ -71,6 +73,26 @@ TEST(Conversions, MalformedMotionDataIsSanitised) {
   EXPECT_TRUE(md.camera.H.isIdentity());
   ASSERT_EQ(md.features.size(), 1u);  // common prefix of 2, minus the NaN one
   EXPECT_EQ(md.features[0].id, 1u);
+  EXPECT_EQ(md.features[0].patch_error, 0.f);  // none given (an older publisher): unknown
+}
+
+// The patch errors are optional: a short array, NaN or a negative value
+// reads as unknown (0) and keeps the feature.
+TEST(Conversions, MissingOrBadPatchErrorsReadAsUnknown) {
+  instant_motion_tracking::MotionData m;
+  m.ids = {1, 2, 3};
+  m.x = m.y = m.dx = m.dy = {1, 2, 3};
+  m.background_weight = {1, 1, 1};
+  m.foreground = {0, 0, 0};
+  m.age = {1, 1, 1};
+  m.patch_error = {NAN, -2};
+  const MotionData md = fromMsg(m);
+  ASSERT_EQ(md.features.size(), 3u);
+  for (const FeatureMotion& f : md.features) EXPECT_EQ(f.patch_error, 0.f) << f.id;
+  m.patch_error = {0.5f, 4, 2};
+  const MotionData ok = fromMsg(m);
+  ASSERT_EQ(ok.features.size(), 3u);
+  EXPECT_FLOAT_EQ(ok.features[1].patch_error, 4.f);
 }
 
 TEST(Conversions, CameraInfoShiftsThePrincipalPointByHalfAPixel) {

@@ -45,6 +45,11 @@ struct FeatureMotion {
   float bg_weight = 1;      // 0 (foreground) .. 1 (background)
   bool foreground = false;
   uint16_t age = 0;         // frames tracked
+  // LK's patch error of its last step: the mean absolute grey-level
+  // difference over its window, at the resolution it was tracked at; 0 when
+  // unknown. A window that straddles an object's edge and what moves behind
+  // it matches worse than the object's own (region trackers weigh by it).
+  float patch_error = 0;
 };
 
 // Compact per-frame motion data (paper 3.1): all the trackers ever see.

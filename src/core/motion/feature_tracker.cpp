@@ -159,6 +159,7 @@ void FeatureTracker::trackForward(float interval_ratio) {
     nt.age =
         t.age == std::numeric_limits<uint16_t>::max() ? t.age : static_cast<uint16_t>(t.age + 1);
     nt.prev_index = static_cast<int>(i);
+    nt.patch_error = std::isfinite(err_[i]) ? err_[i] : 0.f;
     const bool suspicious =
         t.age == 0 || (t.id + frame_) % interval == 0 || err_[i] > err_gate ||
         dist2(p, guesses_[i] + median_a) > kAccelerationGate * kAccelerationGate;

@@ -210,6 +210,7 @@ MotionData MotionAnalyzer::process(const cv::Mat& gray, double stamp) {
     f.dx = c.x - px;
     f.dy = c.y - py;
     f.age = t.age;
+    f.patch_error = t.patch_error;
     FeatureState& ns = s.next_state[i];
     if (valid) {
       // Accumulated residual (decaying sum): a slowly but steadily moving

@@ -40,6 +40,20 @@ double nextFrameInterval(double usual, double interval, double g) {
   return 0.9 * usual + 0.1 * interval;
 }
 
+// The features' median patch error (FeatureMotion::patch_error) among those
+// in `box` with a motion and a known error; 0 with fewer than
+// kMinPatchErrors of them (a median of fewer is no scale).
+constexpr size_t kMinPatchErrors = 5;
+double medianPatchError(std::vector<FeatureMotion>::const_iterator begin,
+                        std::vector<FeatureMotion>::const_iterator end, const cv::Rect2d& box) {
+  std::vector<float> e;
+  for (auto it = begin; it != end; ++it)
+    if (it->age > 0 && it->patch_error > 0 && box.contains(cv::Point2d(it->x, it->y))) e.push_back(it->patch_error);
+  if (e.size() < kMinPatchErrors) return 0;
+  std::nth_element(e.begin(), e.begin() + e.size() / 2, e.end());
+  return e[e.size() / 2];
+}
+
 bool contains(const std::vector<uint32_t>& sorted, uint32_t id) {
   return std::binary_search(sorted.begin(), sorted.end(), id);
 }
@@ -283,17 +297,30 @@ RegionState RegionTracker::stepMotion(const RegionState& state, const MotionData
   // features' weights would vanish against the region's own corners).
   const double motion_scale =
       std::isfinite(md.analysis_scale) && md.analysis_scale > 1 ? std::min<double>(md.analysis_scale, 64) : 1.0;
+  // How well each feature's LK window matched (its patch error) against the
+  // region's own features: a window straddling the region's edge and what
+  // moves behind it (the wall a card uncovers, the road behind a followed
+  // car or a walker) moves partly with each, steadily lags the region and
+  // stretches its fit toward the background; it matches 2-3 times worse
+  // than the region's own (measured on region_midstart). The prior is
+  // weighed by a Cauchy weight at the scale of the median error in the box,
+  // 1 / (1 + (e / median)^2): the median feature keeps half, one at three
+  // times it a tenth. Without enough errors in the box (or none known, 0),
+  // no weighing.
+  const double error_scale = medianPatchError(crop_begin, crop_end, state.box);
   for (auto fit = crop_begin; fit != crop_end; ++fit) {
     const FeatureMotion& f = *fit;
     if (f.age == 0) continue;  // just detected: no motion measured yet
+    const double q = error_scale > 0 ? f.patch_error / error_scale : 0.0;
+    const double match_weigh = 1 + q * q;
     const Eigen::Vector2d cur(f.x, f.y);
     const Eigen::Vector2d prev = applyH(H_inv, cur - Eigen::Vector2d(f.dx, f.dy));
     const size_t before = vecs.size();
     // Measured at the analysis resolution: off by up to a pixel there,
     // analysis_scale pixels here. The weights are 1 / error, as the robust
     // fit's are; a region's own features are tracked at full resolution.
-    if (dir == Direction::kForward) addVec(f.id, prev, cur, motion_scale);
-    else addVec(f.id, cur, prev, motion_scale);
+    if (dir == Direction::kForward) addVec(f.id, prev, cur, motion_scale * match_weigh);
+    else addVec(f.id, cur, prev, motion_scale * match_weigh);
     if (vecs.size() != before) vecs.back().bg = f.bg_weight;
   }
   // The region's own features, tracked from its frame into the next.

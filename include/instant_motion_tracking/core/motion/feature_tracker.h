@@ -35,6 +35,9 @@ struct FeatureTrack {
   cv::Point2f cur;      // position in the current frame
   uint16_t age = 0;     // frames tracked; 0 = detected in this frame (no motion yet)
   int prev_index = -1;  // index of this track in the previous frame's tracks(), -1 when new
+  // LK's patch error of the step into `cur` (the mean absolute grey-level
+  // difference over its window at the tracking resolution); 0 when new.
+  float patch_error = 0;
 };
 
 class FeatureTracker {

@@ -254,6 +254,13 @@ TEST(RegionTracker, EdgeFeaturesThatMatchWorseDoNotStretchTheBox) {
   };
   const double weighed = widthError(trackForward(md, w.box(0, 0), 0));
   const double unweighed = widthError(trackForward(unknown, w.box(0, 0), 0));
+  // Errors given by hand that are no errors (NaN, infinite, negative) read
+  // as unknown: the track is the unweighed one, not a broken fit.
+  std::vector<MotionData> bad = unknown;
+  const float nonsense[] = {NAN, INFINITY, -1.0f};
+  for (MotionData& m : bad)
+    for (size_t i = 0; i < m.features.size(); ++i) m.features[i].patch_error = nonsense[i % 3];
+  EXPECT_DOUBLE_EQ(widthError(trackForward(bad, w.box(0, 0), 0)), unweighed);
   std::printf("card with lagging edge features: box width off by %.2f%% mean, %.2f%% with their errors unknown\n",
               100 * weighed, 100 * unweighed);
   // Measured 2.02% weighed, 10.71% with the errors unknown (as every

@@ -40,15 +40,22 @@ double nextFrameInterval(double usual, double interval, double g) {
   return 0.9 * usual + 0.1 * interval;
 }
 
-// The features' median patch error (FeatureMotion::patch_error) among those
-// in `box` with a motion and a known error; 0 with fewer than
-// kMinPatchErrors of them (a median of fewer is no scale).
+// A feature's patch error (FeatureMotion::patch_error) if known: positive
+// and finite; else 0 (motion data given by hand may carry anything).
+double knownPatchError(const FeatureMotion& f) {
+  return std::isfinite(f.patch_error) && f.patch_error > 0 ? f.patch_error : 0.0;
+}
+
+// The features' median patch error among those in `box` with a motion and a
+// known error; 0 with fewer than kMinPatchErrors of them (a median of fewer
+// is no scale).
 constexpr size_t kMinPatchErrors = 5;
 double medianPatchError(std::vector<FeatureMotion>::const_iterator begin,
                         std::vector<FeatureMotion>::const_iterator end, const cv::Rect2d& box) {
   std::vector<float> e;
   for (auto it = begin; it != end; ++it)
-    if (it->age > 0 && it->patch_error > 0 && box.contains(cv::Point2d(it->x, it->y))) e.push_back(it->patch_error);
+    if (it->age > 0 && knownPatchError(*it) > 0 && box.contains(cv::Point2d(it->x, it->y)))
+      e.push_back(it->patch_error);
   if (e.size() < kMinPatchErrors) return 0;
   std::nth_element(e.begin(), e.begin() + e.size() / 2, e.end());
   return e[e.size() / 2];
@@ -311,7 +318,7 @@ RegionState RegionTracker::stepMotion(const RegionState& state, const MotionData
   for (auto fit = crop_begin; fit != crop_end; ++fit) {
     const FeatureMotion& f = *fit;
     if (f.age == 0) continue;  // just detected: no motion measured yet
-    const double q = error_scale > 0 ? f.patch_error / error_scale : 0.0;
+    const double q = error_scale > 0 ? knownPatchError(f) / error_scale : 0.0;
     const double match_weigh = 1 + q * q;
     const Eigen::Vector2d cur(f.x, f.y);
     const Eigen::Vector2d prev = applyH(H_inv, cur - Eigen::Vector2d(f.dx, f.dy));

@@ -258,7 +258,12 @@ TEST(RegionFailureClass, StaticPatchPartlyCoveredAtInit) {
       "mean IoU %.3f over %d frames (goal %.2f)\n",
       100 * r0->occluded_fraction, uncovered, iou, n, kGoal);
   EXPECT_GT(n, 150);
-  // Measured 0.930 (seeds 2-4: 0.953, 0.938, 0.939) since features are
+  // Measured 0.930 (seeds 2-8: 0.931, 0.938, 0.939, 0.910, 0.926, 0.927,
+  // 0.946) since a scale seen only between the motion analysis's two
+  // classes is refused (seed 7 followed the card's edge before: the box grew
+  // 4% a frame, 0.213; seed 2 0.953 had its box 3% too large from frame 1,
+  // which the wall's zoom then caught up with). 0.930 (seeds 2-4: 0.953,
+  // 0.938, 0.939) since features are
   // weighed by how well their LK windows matched; 0.932 (0.947, 0.946,
   // 0.952) since the motion fit is made again from the inliers alone; 0.945 (0.954, 0.959, 0.951) before:
   // the region stays on the patch.

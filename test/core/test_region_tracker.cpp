@@ -270,6 +270,70 @@ TEST(RegionTracker, EdgeFeaturesThatMatchWorseDoNotStretchTheBox) {
   EXPECT_LT(weighed, 0.5 * unweighed);
 }
 
+// A wall patch a textured card partly covers when the region is given, the
+// card sliding off it (region_static_covered, seed 7): the wall's features
+// stay on one side of the box, the card's move on the other, and a scale fit
+// explains both within the inlier threshold as the patch growing ~4% a
+// frame. The motion analysis tells the two classes apart (the card's
+// features are foreground): the scale is seen only between them, not within
+// either, and the region keeps to the wall. Without the classes (every
+// feature background, as an older publisher's or a hand-made message's
+// default) it has nothing to tell them by.
+TEST(RegionTracker, CardSlidingOffAWallPatchDoesNotStretchIt) {
+  // The features as the preset's frame 1 has them (a still camera): seven
+  // on the wall in the patch's left two thirds, six on the card over its
+  // right third; the rest of the wall's features are outside the patch.
+  World w = makeWorld();
+  w.camera = [](int) { return Eigen::Matrix3d(Eigen::Matrix3d::Identity()); };
+  const cv::Rect2d patch(199, 242, 116, 93);
+  std::vector<Eigen::Vector2d> wall;
+  for (const Eigen::Vector2d& p : w.background)
+    if (!patch.contains(cv::Point2d(p.x(), p.y()))) wall.push_back(p);
+  for (const auto& p : {Eigen::Vector2d(203, 243), Eigen::Vector2d(215, 275), Eigen::Vector2d(225, 289),
+                        Eigen::Vector2d(229, 315), Eigen::Vector2d(251, 289), Eigen::Vector2d(201, 333),
+                        Eigen::Vector2d(235, 331)})
+    wall.push_back(p);
+  w.background = wall;
+  Object card;
+  card.half_size = {70, 55};
+  const Eigen::Vector2d c0(345, 290);  // its left edge at x = 275
+  for (const auto& p : {Eigen::Vector2d(277, 287), Eigen::Vector2d(287, 297), Eigen::Vector2d(297, 325),
+                        Eigen::Vector2d(309, 255), Eigen::Vector2d(313, 293), Eigen::Vector2d(313, 309)})
+    card.points.push_back(p - c0);
+  for (const Eigen::Vector2d& p : randomPoints(30, 140, 110, 17, true))
+    if (!patch.contains(cv::Point2d(c0.x() + p.x(), c0.y() + p.y()))) card.points.push_back(p);
+  card.centre = [c0](int k) { return Eigen::Vector2d(c0.x() + 3.6 * k, c0.y() + 1.5 * k); };
+  card.scale = [](int) { return 1.0; };
+  w.objects.push_back(card);
+  const int n = 40;
+  std::vector<MotionData> md = w.motionData(n);
+  for (int k = 0; k < n; ++k)
+    for (FeatureMotion& f : md[k].features)
+      if (w.box(0, k).contains(cv::Point2d(f.x, f.y))) f.bg_weight = 0;
+  std::vector<MotionData> unknown = md;
+  for (MotionData& m : unknown)
+    for (FeatureMotion& f : m.features) f.bg_weight = 1;
+  const auto meanIou = [&](const Track& tr, double* width) {
+    double sum = 0;
+    for (int k = 1; k < n; ++k) sum += iou(tr.states[k].extent(), patch);
+    *width = tr.states.back().box.width / patch.width;
+    return sum / (n - 1);
+  };
+  double width = 0, width_unknown = 0;
+  const double classes = meanIou(trackForward(md, patch, 0), &width);
+  const double without = meanIou(trackForward(unknown, patch, 0), &width_unknown);
+  std::printf("card sliding off a wall patch: mean IoU %.3f (last width x%.2f), %.3f (x%.2f) without the classes\n",
+              classes, width, without, width_unknown);
+  // Measured 0.975 (its width x1.00 at the end); without the classes, and
+  // with them before they were used, 0.834 (x1.10: the box grows toward the
+  // card for the first frames). The bars sit between the two with room for
+  // the synthetic noise, and the classes must make the difference (else the
+  // scene no longer mixes the two motions and tests nothing).
+  EXPECT_GT(classes, 0.93);
+  EXPECT_NEAR(width, 1.0, 0.03);
+  EXPECT_GT(classes - without, 0.05);
+}
+
 // Frames dropped upstream (a loaded graph): the steps span 2 to 6 frames.
 // The region follows a fast card through them, and its velocities stay per
 // usual frame interval, so the frame after a gap is predicted right too.

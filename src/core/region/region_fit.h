@@ -89,6 +89,32 @@ inline bool fitModel(const std::vector<Vec>& v, const Eigen::Vector2d& c, int do
   return true;
 }
 
+// A scale seen only between the motion analysis's two classes of features
+// (background, bg_weight >= 0.5, and moving), not within either: two motions
+// mixed, not a zoom. A card sliding off a wall patch, the wall's features
+// still on one side of the box and the card's moving on the other, is fitted
+// as the patch growing 3-4% a frame, each residual under the inlier
+// threshold; within each class the scale is ~1. A true zoom (the camera or
+// the target approaching) shows within the class that carries it. True when
+// the inliers (residual under `thr`) hold at least `min_each` of each class
+// and `m`'s scale change is more than twice either class's own (each fitted
+// about the same centre; a class too small or degenerate to fit is no
+// evidence either way: false).
+inline bool scaleOnlyBetweenClasses(const std::vector<Vec>& v, const LocalModel& m, double thr, int min_each) {
+  if (m.dof < 3) return false;
+  std::vector<Vec> cls[2];
+  for (const Vec& e : v)
+    if (e.in_box && e.bg >= 0 && e.weight > 0 && (e.dst - m.apply(e.src_cam)).norm() < thr)
+      cls[e.bg >= 0.5 ? 0 : 1].push_back(e);
+  const double joint = std::abs(m.scale() - 1);
+  for (const std::vector<Vec>& c : cls) {
+    LocalModel own;
+    if (static_cast<int>(c.size()) < min_each || !fitModel(c, m.c, 3, &own)) return false;
+    if (joint <= 2 * std::abs(own.scale() - 1)) return false;
+  }
+  return true;
+}
+
 inline Eigen::Vector2d applyH(const Eigen::Matrix3d& H, const Eigen::Vector2d& p) {
   const Eigen::Vector3d q = H * p.homogeneous();
   return q.hnormalized();

@@ -24,10 +24,16 @@ using region_fit::LocalModel;
 using region_fit::Vec;
 using region_fit::fitModel;
 using region_fit::moveBox;
+using region_fit::scaleOnlyBetweenClasses;
 
 // A region that loses its features coasts on its own motion (below) only
 // when at least this fraction of its box is inside the image.
 constexpr double kMinInsideToCoast = 0.75;
+
+// Inliers of each motion class (background, moving) a scale must be checked
+// in before it is taken for two motions mixed: 3, the fewest a scale can be
+// fitted to with a point to spare.
+constexpr int kMinClassInliers = 3;
 
 // The usual interval between frames after a step of `interval` s that spans
 // `g` of the previous usual interval `usual`: learned from the first step,
@@ -422,21 +428,30 @@ RegionState RegionTracker::stepMotion(const RegionState& state, const MotionData
   const auto inlierThreshold = [&](const LocalModel& m) { return o.inlier_error + 0.1 * m.t.norm(); };
   // IRLS: w_i = prior_i / error_i, fitting the highest model the inliers support.
   LocalModel model;
-  int dof = 2;
-  int n_in = 0;
-  for (int it = 0; it < o.irls_iterations; ++it) {
-    if (!fitModel(vecs, c_cam, dof, &model)) {
-      dof = 2;
-      fitModel(vecs, c_cam, dof, &model);
+  const auto irls = [&](int max_dof) {
+    int dof = 2;
+    for (int it = 0; it < o.irls_iterations; ++it) {
+      if (!fitModel(vecs, c_cam, dof, &model)) {
+        dof = 2;
+        fitModel(vecs, c_cam, dof, &model);
+      }
+      int n_in = 0;
+      const double thr = inlierThreshold(model);
+      for (Vec& v : vecs) {
+        v.error = (v.dst - model.apply(v.src_cam)).norm();
+        v.weight = v.prior / std::max(v.error, o.error_floor);
+        if (v.in_box && v.error < thr) ++n_in;
+      }
+      dof = std::min(max_dof, n_in >= o.min_inliers_similarity ? 4 : n_in >= o.min_inliers_scale ? 3 : 2);
     }
-    n_in = 0;
-    const double thr = inlierThreshold(model);
-    for (Vec& v : vecs) {
-      v.error = (v.dst - model.apply(v.src_cam)).norm();
-      v.weight = v.prior / std::max(v.error, o.error_floor);
-      if (v.in_box && v.error < thr) ++n_in;
-    }
-    dof = n_in >= o.min_inliers_similarity ? 4 : n_in >= o.min_inliers_scale ? 3 : 2;
+  };
+  irls(4);
+  // A scale seen only between the background's features and the moving
+  // ones is two motions mixed (region_fit.h): the region keeps to one of
+  // them by a translation fit, made afresh from the priors.
+  if (scaleOnlyBetweenClasses(vecs, model, inlierThreshold(model), kMinClassInliers)) {
+    for (Vec& v : vecs) v.weight = v.prior;
+    irls(2);
   }
   // The model again from the inliers alone: the features that fit it
   // worse still pull on it through their IRLS weights, most on its scale

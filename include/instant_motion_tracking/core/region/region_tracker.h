@@ -7,7 +7,10 @@
 // near its centre, and disfavours those it has seen moving with the camera
 // while it moved on its own (the background at the edges of its box, kept
 // as feature IDs while they stay near it); the error is the feature's
-// residual against the current fit.
+// residual against the current fit. A scale that the motion analysis's
+// background features and its moving ones give together but neither alone
+// is two motions in one box (a wall patch a card slides off), not a zoom:
+// the region is then fitted as a translation.
 //
 // Own features (when the frames' images are given): each region also tracks
 // up to `region_features` corners of its own, found inside its box and

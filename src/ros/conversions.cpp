@@ -110,7 +110,10 @@ MotionData fromMsg(const instant_motion_tracking::MotionData& m) {
     f.dy = m.dy[i];
     if (!std::isfinite(f.x) || !std::isfinite(f.y) || !std::isfinite(f.dx) || !std::isfinite(f.dy))
       continue;
-    f.bg_weight = m.background_weight[i];
+    // 0..1; no number reads as background (1), as the analysis gives
+    // when it has nothing to compare with.
+    const float bg = m.background_weight[i];
+    f.bg_weight = std::isfinite(bg) ? std::clamp(bg, 0.f, 1.f) : 1.f;
     f.foreground = m.foreground[i] != 0;
     f.age = m.age[i];
     // Optional (empty from publishers before it); unknown is 0.

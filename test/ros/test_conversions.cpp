@@ -95,6 +95,19 @@ TEST(Conversions, MissingOrBadPatchErrorsReadAsUnknown) {
   EXPECT_FLOAT_EQ(ok.features[1].patch_error, 4.f);
 }
 
+TEST(Conversions, BadBackgroundWeightsReadAsBackground) {
+  instant_motion_tracking::MotionData m;
+  m.ids = {1, 2, 3, 4, 5, 6};
+  m.x = m.y = m.dx = m.dy = {1, 2, 3, 4, 5, 6};
+  m.background_weight = {NAN, INFINITY, -INFINITY, 7, -3, 0.25f};
+  m.foreground = {0, 0, 0, 0, 0, 1};
+  m.age = {1, 1, 1, 1, 1, 1};
+  const MotionData md = fromMsg(m);
+  ASSERT_EQ(md.features.size(), 6u);
+  const float expected[] = {1, 1, 1, 1, 0, 0.25f};  // no number: background; else clamped to 0..1
+  for (size_t i = 0; i < 6; ++i) EXPECT_FLOAT_EQ(md.features[i].bg_weight, expected[i]) << md.features[i].id;
+}
+
 TEST(Conversions, CameraInfoShiftsThePrincipalPointByHalfAPixel) {
   CameraModel k = CameraModel::fromFieldOfView(640, 480, 60.0);
   std_msgs::Header h;

@@ -52,6 +52,14 @@ double knownPatchError(const FeatureMotion& f) {
   return std::isfinite(f.patch_error) && f.patch_error > 0 ? f.patch_error : 0.0;
 }
 
+// A feature's background weight as the fit reads it: within 0..1, and 1
+// (background: what the motion analysis gives when it has nothing to
+// compare with) when it is no number (a malformed message's NaN or
+// infinity), so a region's zoom, raised to the mean weight, stays finite.
+double backgroundWeight(const FeatureMotion& f) {
+  return std::isfinite(f.bg_weight) ? std::clamp(static_cast<double>(f.bg_weight), 0.0, 1.0) : 1.0;
+}
+
 // The features' median patch error among those in `box` with a motion and a
 // known error; 0 with fewer than kMinPatchErrors of them (a median of fewer
 // is no scale).
@@ -334,7 +342,7 @@ RegionState RegionTracker::stepMotion(const RegionState& state, const MotionData
     // fit's are; a region's own features are tracked at full resolution.
     if (dir == Direction::kForward) addVec(f.id, prev, cur, motion_scale * match_weigh);
     else addVec(f.id, cur, prev, motion_scale * match_weigh);
-    if (vecs.size() != before) vecs.back().bg = f.bg_weight;
+    if (vecs.size() != before) vecs.back().bg = backgroundWeight(f);
   }
   // The region's own features, tracked from its frame into the next.
   if (!from_image.empty() && !to_image.empty() && !state.own_points.empty()) {

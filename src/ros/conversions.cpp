@@ -110,15 +110,11 @@ MotionData fromMsg(const instant_motion_tracking::MotionData& m) {
     f.dy = m.dy[i];
     if (!std::isfinite(f.x) || !std::isfinite(f.y) || !std::isfinite(f.dx) || !std::isfinite(f.dy))
       continue;
-    // 0..1; no number reads as background (1), as the analysis gives
-    // when it has nothing to compare with.
-    const float bg = m.background_weight[i];
-    f.bg_weight = std::isfinite(bg) ? std::clamp(bg, 0.f, 1.f) : 1.f;
+    f.bg_weight = knownBackgroundWeight(m.background_weight[i]);
     f.foreground = m.foreground[i] != 0;
     f.age = m.age[i];
     // Optional (empty from publishers before it); unknown is 0.
-    if (i < m.patch_error.size() && std::isfinite(m.patch_error[i]) && m.patch_error[i] > 0)
-      f.patch_error = m.patch_error[i];
+    if (i < m.patch_error.size()) f.patch_error = knownPatchError(m.patch_error[i]);
     md.features.push_back(f);
   }
   return md;

@@ -8,6 +8,8 @@
 #include <Eigen/Geometry>
 #include <opencv2/core.hpp>
 
+#include <algorithm>
+#include <cmath>
 #include <cstdint>
 #include <string>
 #include <vector>
@@ -51,6 +53,16 @@ struct FeatureMotion {
   // it matches worse than the object's own (region trackers weigh by it).
   float patch_error = 0;
 };
+
+// How a FeatureMotion's fields are read when they may come from anywhere
+// (a message, motion data given by hand): the one rule for the message
+// conversion and the trackers alike.
+// A patch error if known (positive and finite), else 0 (unknown).
+inline float knownPatchError(float e) { return std::isfinite(e) && e > 0 ? e : 0.f; }
+// A background weight within 0..1; no number (NaN, infinite) reads as
+// background (1), what the motion analysis gives when it has nothing to
+// compare with.
+inline float knownBackgroundWeight(float w) { return std::isfinite(w) ? std::clamp(w, 0.f, 1.f) : 1.f; }
 
 // Compact per-frame motion data (paper 3.1): all the trackers ever see.
 struct MotionData {

@@ -46,20 +46,6 @@ double nextFrameInterval(double usual, double interval, double g) {
   return 0.9 * usual + 0.1 * interval;
 }
 
-// A feature's patch error (FeatureMotion::patch_error) if known: positive
-// and finite; else 0 (motion data given by hand may carry anything).
-double knownPatchError(const FeatureMotion& f) {
-  return std::isfinite(f.patch_error) && f.patch_error > 0 ? f.patch_error : 0.0;
-}
-
-// A feature's background weight as the fit reads it: within 0..1, and 1
-// (background: what the motion analysis gives when it has nothing to
-// compare with) when it is no number (a malformed message's NaN or
-// infinity), so a region's zoom, raised to the mean weight, stays finite.
-double backgroundWeight(const FeatureMotion& f) {
-  return std::isfinite(f.bg_weight) ? std::clamp(static_cast<double>(f.bg_weight), 0.0, 1.0) : 1.0;
-}
-
 // The features' median patch error among those in `box` with a motion and a
 // known error; 0 with fewer than kMinPatchErrors of them (a median of fewer
 // is no scale).
@@ -68,7 +54,7 @@ double medianPatchError(std::vector<FeatureMotion>::const_iterator begin,
                         std::vector<FeatureMotion>::const_iterator end, const cv::Rect2d& box) {
   std::vector<float> e;
   for (auto it = begin; it != end; ++it)
-    if (it->age > 0 && knownPatchError(*it) > 0 && box.contains(cv::Point2d(it->x, it->y)))
+    if (it->age > 0 && knownPatchError(it->patch_error) > 0 && box.contains(cv::Point2d(it->x, it->y)))
       e.push_back(it->patch_error);
   if (e.size() < kMinPatchErrors) return 0;
   std::nth_element(e.begin(), e.begin() + e.size() / 2, e.end());
@@ -332,7 +318,7 @@ RegionState RegionTracker::stepMotion(const RegionState& state, const MotionData
   for (auto fit = crop_begin; fit != crop_end; ++fit) {
     const FeatureMotion& f = *fit;
     if (f.age == 0) continue;  // just detected: no motion measured yet
-    const double q = error_scale > 0 ? knownPatchError(f) / error_scale : 0.0;
+    const double q = error_scale > 0 ? knownPatchError(f.patch_error) / error_scale : 0.0;
     const double match_weigh = 1 + q * q;
     const Eigen::Vector2d cur(f.x, f.y);
     const Eigen::Vector2d prev = applyH(H_inv, cur - Eigen::Vector2d(f.dx, f.dy));
@@ -342,7 +328,9 @@ RegionState RegionTracker::stepMotion(const RegionState& state, const MotionData
     // fit's are; a region's own features are tracked at full resolution.
     if (dir == Direction::kForward) addVec(f.id, prev, cur, motion_scale * match_weigh);
     else addVec(f.id, cur, prev, motion_scale * match_weigh);
-    if (vecs.size() != before) vecs.back().bg = backgroundWeight(f);
+    // Read with care (types.h): an infinite weight would make a region's
+    // zoom, raised to its inliers' mean weight, infinite.
+    if (vecs.size() != before) vecs.back().bg = knownBackgroundWeight(f.bg_weight);
   }
   // The region's own features, tracked from its frame into the next.
   if (!from_image.empty() && !to_image.empty() && !state.own_points.empty()) {

@@ -290,6 +290,24 @@ geometry_msgs::Pose toPoseMsg(const Eigen::Isometry3d& T) {
   return p;
 }
 
+namespace {
+
+// The tf transform from `header`'s frame to `child` (planar targets, anchors).
+geometry_msgs::TransformStamped toTransformMsg(const Eigen::Isometry3d& T, const std_msgs::Header& header,
+                                              const std::string& child) {
+  geometry_msgs::TransformStamped t;
+  t.header = header;
+  t.child_frame_id = child;
+  const geometry_msgs::Pose p = toPoseMsg(T);
+  t.transform.translation.x = p.position.x;
+  t.transform.translation.y = p.position.y;
+  t.transform.translation.z = p.position.z;
+  t.transform.rotation = p.orientation;
+  return t;
+}
+
+}  // namespace
+
 instant_motion_tracking::TrackedRegion toMsg(const RegionState& s) {
   instant_motion_tracking::TrackedRegion r;
   r.id = s.id;
@@ -348,15 +366,7 @@ std::vector<geometry_msgs::TransformStamped> planarTargetTransforms(
   std::vector<geometry_msgs::TransformStamped> out;
   for (const PlanarTargetState& s : states) {
     if (!s.hasPose()) continue;
-    geometry_msgs::TransformStamped t;
-    t.header = header;
-    t.child_frame_id = frame_prefix + "planar_target_" + std::to_string(s.id);
-    const geometry_msgs::Pose p = toPoseMsg(s.T_cam_target);
-    t.transform.translation.x = p.position.x;
-    t.transform.translation.y = p.position.y;
-    t.transform.translation.z = p.position.z;
-    t.transform.rotation = p.orientation;
-    out.push_back(t);
+    out.push_back(toTransformMsg(s.T_cam_target, header, frame_prefix + "planar_target_" + std::to_string(s.id)));
   }
   return out;
 }
@@ -390,15 +400,7 @@ std::vector<geometry_msgs::TransformStamped> anchorTransforms(const std::vector<
   std::vector<geometry_msgs::TransformStamped> out;
   for (const AnchorState& s : states) {
     if (!s.hasEstimate()) continue;
-    geometry_msgs::TransformStamped t;
-    t.header = header;
-    t.child_frame_id = frame_prefix + "anchor_" + std::to_string(s.id);
-    const geometry_msgs::Pose p = toPoseMsg(s.T_cam_anchor);
-    t.transform.translation.x = p.position.x;
-    t.transform.translation.y = p.position.y;
-    t.transform.translation.z = p.position.z;
-    t.transform.rotation = p.orientation;
-    out.push_back(t);
+    out.push_back(toTransformMsg(s.T_cam_anchor, header, frame_prefix + "anchor_" + std::to_string(s.id)));
   }
   return out;
 }

@@ -1,5 +1,7 @@
 #include "instant_motion_tracking/ros/markers.h"
 
+#include <string>
+
 namespace imt {
 namespace {
 
@@ -25,6 +27,31 @@ std_msgs::ColorRGBA colour(RegionStatus s) {
   return c;
 }
 
+// A line marker in `header`'s frame, `width` m wide, that rviz drops half
+// a second after its last update (no DELETEALL: other nodelets publish
+// markers too).
+visualization_msgs::Marker lineMarker(const std_msgs::Header& header, const std::string& ns, uint32_t id,
+                                      int type, double width) {
+  visualization_msgs::Marker m;
+  m.header = header;
+  m.ns = ns;
+  m.id = static_cast<int>(id);
+  m.type = type;
+  m.action = visualization_msgs::Marker::ADD;
+  m.pose.orientation.w = 1.0;
+  m.scale.x = width;
+  m.lifetime = ros::Duration(0.5);
+  return m;
+}
+
+geometry_msgs::Point toPointMsg(const Eigen::Vector3d& p) {
+  geometry_msgs::Point q;
+  q.x = p.x();
+  q.y = p.y();
+  q.z = p.z();
+  return q;
+}
+
 }  // namespace
 
 visualization_msgs::MarkerArray regionMarkers(const std::vector<RegionState>& states,
@@ -33,15 +60,8 @@ visualization_msgs::MarkerArray regionMarkers(const std::vector<RegionState>& st
   visualization_msgs::MarkerArray out;
   for (const RegionState& s : states) {
     if (s.status == RegionStatus::kLost || !k.valid) continue;
-    visualization_msgs::Marker box;
-    box.header = header;
-    box.ns = "regions";
-    box.id = static_cast<int>(s.id);
-    box.type = visualization_msgs::Marker::LINE_STRIP;
-    box.action = visualization_msgs::Marker::ADD;
-    box.pose.orientation.w = 1.0;
-    box.scale.x = 0.004;
-    box.lifetime = ros::Duration(0.5);  // no DELETEALL: other nodelets publish markers too
+    visualization_msgs::Marker box =
+        lineMarker(header, "regions", s.id, visualization_msgs::Marker::LINE_STRIP, 0.004);
     box.color = colour(s.status);
     const cv::Rect2d b = s.extent();
     for (const auto& [u, v] : {std::pair<double, double>{b.x, b.y}, {b.br().x, b.y}, {b.br().x, b.br().y},
@@ -65,27 +85,14 @@ visualization_msgs::MarkerArray planarTargetMarkers(const std::vector<PlanarTarg
   visualization_msgs::MarkerArray out;
   for (const PlanarTargetState& s : states) {
     if (!s.hasPose()) continue;
-    visualization_msgs::Marker quad;
-    quad.header = header;
-    quad.ns = "planar_targets";
-    quad.id = static_cast<int>(s.id);
-    quad.type = visualization_msgs::Marker::LINE_STRIP;
-    quad.action = visualization_msgs::Marker::ADD;
-    quad.pose.orientation.w = 1.0;
-    quad.scale.x = 0.005;
-    quad.lifetime = ros::Duration(0.5);
+    visualization_msgs::Marker quad =
+        lineMarker(header, "planar_targets", s.id, visualization_msgs::Marker::LINE_STRIP, 0.005);
     quad.color.a = 1.0;
     quad.color.g = s.status == TargetStatus::kTracked ? 1.0 : 0.6;
     quad.color.r = s.status == TargetStatus::kTracked ? 0.0 : 1.0;
     const double w = s.width_m / 2, h = s.height_m / 2;
-    for (const auto& [x, y] : {std::pair<double, double>{-w, -h}, {w, -h}, {w, h}, {-w, h}, {-w, -h}}) {
-      const Eigen::Vector3d p = s.T_cam_target * Eigen::Vector3d(x, y, 0);
-      geometry_msgs::Point q;
-      q.x = p.x();
-      q.y = p.y();
-      q.z = p.z();
-      quad.points.push_back(q);
-    }
+    for (const auto& [x, y] : {std::pair<double, double>{-w, -h}, {w, -h}, {w, h}, {-w, h}, {-w, -h}})
+      quad.points.push_back(toPointMsg(s.T_cam_target * Eigen::Vector3d(x, y, 0)));
     out.markers.push_back(quad);
   }
   return out;
@@ -96,15 +103,9 @@ visualization_msgs::MarkerArray anchorMarkers(const std::vector<AnchorState>& st
   visualization_msgs::MarkerArray out;
   for (const AnchorState& s : states) {
     if (!s.hasEstimate()) continue;
-    visualization_msgs::Marker axes;
-    axes.header = header;
-    axes.ns = "anchors";
-    axes.id = static_cast<int>(s.id);
-    axes.type = visualization_msgs::Marker::LINE_LIST;
-    axes.action = visualization_msgs::Marker::ADD;
-    axes.pose.orientation.w = 1.0;
-    axes.scale.x = 0.1 * axis_m;  // line width: a tenth of the axis length
-    axes.lifetime = ros::Duration(0.5);
+    // Line width: a tenth of the axis length.
+    visualization_msgs::Marker axes =
+        lineMarker(header, "anchors", s.id, visualization_msgs::Marker::LINE_LIST, 0.1 * axis_m);
     const Eigen::Vector3d o = s.T_cam_anchor.translation();
     for (int k = 0; k < 3; ++k) {
       const Eigen::Vector3d tip = o + axis_m * s.T_cam_anchor.linear().col(k);
@@ -112,11 +113,7 @@ visualization_msgs::MarkerArray anchorMarkers(const std::vector<AnchorState>& st
       c.a = 1.0;
       (k == 0 ? c.r : k == 1 ? c.g : c.b) = 1.0;
       for (const Eigen::Vector3d& p : {o, tip}) {
-        geometry_msgs::Point q;
-        q.x = p.x();
-        q.y = p.y();
-        q.z = p.z();
-        axes.points.push_back(q);
+        axes.points.push_back(toPointMsg(p));
         axes.colors.push_back(c);
       }
     }

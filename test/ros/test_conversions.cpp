@@ -305,5 +305,43 @@ TEST(Conversions, AnchorsToMessagesTfAndMarkers) {
   EXPECT_EQ(markers.markers[1].text, "7 out_of_view");
 }
 
+TEST(Conversions, PlanarTargetsToTfAndMarkers) {
+  PlanarTargetState t;
+  t.id = 3;
+  t.width_m = 0.4;
+  t.height_m = 0.2;
+  t.T_cam_target.linear() = Eigen::AngleAxisd(0.2, Eigen::Vector3d::UnitX()).toRotationMatrix();
+  t.T_cam_target.translation() = Eigen::Vector3d(-0.1, 0.05, 2.0);
+  t.status = TargetStatus::kTracked;
+  PlanarTargetState lost = t;
+  lost.id = 4;
+  lost.status = TargetStatus::kLost;
+  std_msgs::Header h;
+  h.frame_id = "cam_optical";
+  h.stamp.fromSec(3.25);
+  const auto tf = planarTargetTransforms({t, lost}, h, "");
+  ASSERT_EQ(tf.size(), 1u);  // a lost target has no pose to broadcast
+  EXPECT_EQ(tf[0].child_frame_id, "planar_target_3");
+  EXPECT_EQ(tf[0].header.frame_id, "cam_optical");
+  EXPECT_EQ(tf[0].header.stamp, h.stamp);
+  EXPECT_DOUBLE_EQ(tf[0].transform.translation.x, -0.1);
+  EXPECT_DOUBLE_EQ(tf[0].transform.translation.z, 2.0);
+  EXPECT_NEAR(tf[0].transform.rotation.x, std::sin(0.1), 1e-12);
+  const auto markers = planarTargetMarkers({t, lost}, h);
+  ASSERT_EQ(markers.markers.size(), 1u);
+  const auto& quad = markers.markers[0];
+  EXPECT_EQ(quad.id, 3);
+  EXPECT_EQ(quad.ns, "planar_targets");
+  EXPECT_EQ(quad.header.frame_id, "cam_optical");
+  ASSERT_EQ(quad.points.size(), 5u);  // closed: the first corner again
+  // The third corner is the target's (+w/2, +h/2) on its plane.
+  const Eigen::Vector3d br = t.T_cam_target * Eigen::Vector3d(0.2, 0.1, 0);
+  EXPECT_NEAR(quad.points[2].x, br.x(), 1e-12);
+  EXPECT_NEAR(quad.points[2].y, br.y(), 1e-12);
+  EXPECT_NEAR(quad.points[2].z, br.z(), 1e-12);
+  EXPECT_EQ(quad.points[4].x, quad.points[0].x);
+  EXPECT_EQ(quad.color.g, 1.0f);  // tracked: green
+}
+
 }  // namespace
 }  // namespace imt

@@ -22,6 +22,7 @@
 #include <opencv2/tracking.hpp>
 #endif
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -143,6 +144,18 @@ Row runPeer(const imt::test::BoxSequence& seq, const std::vector<cv::Mat>& colou
 
 }  // namespace
 
+constexpr char kUsage[] =
+    "usage: benchmark_region_real [--ours-only] [--no-appearance] [--set option=value] [--trace] [--trace-peers]\n"
+    "                             [--starts N] [sequence...]\n"
+    "  --ours-only       leave out OpenCV's KCF and CSRT\n"
+    "  --no-appearance   our tracker on motion data alone (no look, no own corners)\n"
+    "  --set name=value  a region_tracking option (as in config YAML)\n"
+    "  --trace           our tracker's state on every frame (implies --ours-only)\n"
+    "  --trace-peers     the peers' boxes on every frame\n"
+    "  --starts N        mean of N runs: from the first box and N - 1 nudged copies\n"
+    "  sequence          only these (names as in the table; default every one found)\n"
+    "Reads ../shared/data beside the package, or $IMT_SHARED_DATA.\n";
+
 int main(int argc, char** argv) {
   cv::setNumThreads(1);
   bool ours_only = false;
@@ -167,6 +180,14 @@ int main(int argc, char** argv) {
         return 2;
       }
     }
+    else if (a == "--help" || a == "-h") {
+      std::printf("%s", kUsage);
+      return 0;
+    }
+    else if (!a.empty() && a[0] == '-') {
+      std::fprintf(stderr, "unknown option '%s'\n%s", a.c_str(), kUsage);
+      return 2;
+    }
     else only.insert(a);
   }
   const char* env = std::getenv("IMT_SHARED_DATA");
@@ -175,6 +196,15 @@ int main(int argc, char** argv) {
   if (sequences.empty()) {
     std::fprintf(stderr, "no real sequences with box ground truth under %s\n", dir.c_str());
     return 1;
+  }
+  for (const std::string& name : only) {
+    if (std::none_of(sequences.begin(), sequences.end(),
+                     [&](const imt::test::BoxSequence& s) { return s.name() == name; })) {
+      std::fprintf(stderr, "no sequence '%s' under %s; there are:", name.c_str(), dir.c_str());
+      for (const imt::test::BoxSequence& s : sequences) std::fprintf(stderr, " %s", s.name().c_str());
+      std::fprintf(stderr, "\n");
+      return 2;
+    }
   }
   std::printf("Region tracking on real video (%s), one thread, first frame's box given", dir.c_str());
   if (starts > 1) std::printf(" (means of %d runs from it and nudged copies)", starts);

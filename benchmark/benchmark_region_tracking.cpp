@@ -63,6 +63,13 @@ struct IouAccumulator {
 
 }  // namespace
 
+constexpr char kUsage[] =
+    "usage: benchmark_region_tracking [--set option=value] [--ours-only] [--regions N] [seconds]\n"
+    "  --set name=value  a region_tracking option of our rows (as in config YAML)\n"
+    "  --ours-only       leave out OpenCV's KCF and CSRT (a minute of CSRT)\n"
+    "  --regions N       our rows with N regions only (1..1000), after a warm-up with one\n"
+    "  seconds           length of the rendered `cards` scene (default 10)\n";
+
 int main(int argc, char** argv) {
   cv::setNumThreads(1);
   double seconds = 10.0;
@@ -82,8 +89,16 @@ int main(int argc, char** argv) {
         return 2;
       }
       counts = {c};
+    } else if (a == "--help" || a == "-h") {
+      std::printf("%s", kUsage);
+      return 0;
     } else {
-      seconds = std::atof(argv[i]);
+      char* end = nullptr;
+      seconds = std::strtod(argv[i], &end);
+      if (a.empty() || *end != '\0' || !(seconds > 0)) {
+        std::fprintf(stderr, "unknown argument '%s' (not an option, nor a length in seconds)\n%s", argv[i], kUsage);
+        return 2;
+      }
     }
   }
   auto opt = imt::SceneOptions::fromPreset("cards");
@@ -115,6 +130,11 @@ int main(int argc, char** argv) {
       whole = whole && r && r->visible_fraction > 0.999 && r->occluded_fraction < 0.001;
     }
     if (whole) break;
+  }
+  if (start + 2 > static_cast<int>(truth.size())) {
+    std::fprintf(stderr, "the scored regions are not all in view before frame %d of %d: give more than %.1f seconds\n",
+                 start, static_cast<int>(truth.size()), seconds);
+    return 2;
   }
   gray.erase(gray.begin(), gray.begin() + start);
   bgr.erase(bgr.begin(), bgr.begin() + start);

@@ -124,9 +124,8 @@ visualization_msgs::MarkerArray anchorMarkers(const std::vector<AnchorState>& st
     text.type = visualization_msgs::Marker::TEXT_VIEW_FACING;
     text.points.clear();
     text.colors.clear();
-    text.pose.position.x = o.x();
-    text.pose.position.y = o.y() - 0.3 * axis_m;  // above the origin (optical y points down)
-    text.pose.position.z = o.z();
+    // Above the origin (optical y points down).
+    text.pose.position = toPointMsg(o - Eigen::Vector3d(0, 0.3 * axis_m, 0));
     text.scale.z = 0.3 * axis_m;
     text.color.r = text.color.g = text.color.b = 1.0;
     text.text = std::to_string(s.id) + " " + anchorStatusName(s.status);

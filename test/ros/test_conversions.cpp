@@ -303,6 +303,10 @@ TEST(Conversions, AnchorsToMessagesTfAndMarkers) {
   EXPECT_NEAR(axes.points[5].z, tip.z(), 1e-12);
   EXPECT_EQ(axes.colors[5].b, 1.0f);
   EXPECT_EQ(markers.markers[1].text, "7 out_of_view");
+  // The label 0.3 axis lengths above the origin (optical y points down).
+  EXPECT_DOUBLE_EQ(markers.markers[1].pose.position.x, 0.1);
+  EXPECT_DOUBLE_EQ(markers.markers[1].pose.position.y, -0.2 - 0.3 * 0.1);
+  EXPECT_DOUBLE_EQ(markers.markers[1].pose.position.z, 1.5);
 }
 
 TEST(Conversions, PlanarTargetsToTfAndMarkers) {

@@ -26,12 +26,15 @@
 #include <opencv2/core/utility.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include <algorithm>
+#include <array>
 #include <cmath>
 #include <ctime>
 #include <map>
 #include <memory>
 #include <stdexcept>
 #include <tuple>
+#include <vector>
 
 namespace {
 
@@ -44,6 +47,7 @@ constexpr int kPasses = 2;  // whole passes through the sequence per row
 struct Sequence {
   std::unique_ptr<imt::MotionCache> cache;
   imt::FrameTruth::Target target;
+  std::vector<std::array<cv::Point2d, 4>> corners;  // the target's true corners, frame by frame
   imt::CameraModel k;
 };
 
@@ -82,6 +86,7 @@ const Sequence& sequence(int w, int h, bool card) {
     const cv::Mat frame = scene->renderFrame(i);
     std::string reset;
     s.cache->push(analyzer.process(frame, scene->frameStamp(i)), &reset, frame);
+    s.corners.push_back(scene->frameTruth(i).targets.at(0).corners);
   }
   s.target = scene->frameTruth(0).targets.at(0);
   s.k = scene->intrinsics();
@@ -104,6 +109,7 @@ void BM_PlanarTargetStep(benchmark::State& state) {
   uint64_t seq = cache.lastSeq();
   double cpu_ms = 0;
   int64_t aligned = 0;
+  std::vector<double> errors;  // mean corner error (px) of each frame, against the truth
   for (auto _ : state) {
     if (seq == cache.lastSeq()) {
       state.PauseTiming();
@@ -126,10 +132,18 @@ void BM_PlanarTargetStep(benchmark::State& state) {
     cpu_ms += threadCpuMs() - t0;
     aligned += st.correlation > 0;
     benchmark::DoNotOptimize(st.corners[0].x);
+    double e = 0;
+    for (int c = 0; c < 4; ++c) e += cv::norm(cv::Point2d(st.corners[c]) - s.corners[seq - cache.firstSeq()][c]) / 4;
+    errors.push_back(e);
   }
   const double n = static_cast<double>(std::max<int64_t>(1, state.iterations()));
   state.counters["cpu_ms"] = cpu_ms / n;
   state.counters["aligned"] = static_cast<double>(aligned) / n;  // share of frames aligned
+  if (!errors.empty()) {  // what the time buys: the corners' error, median and worst frame
+    std::sort(errors.begin(), errors.end());
+    state.counters["median_px"] = errors[errors.size() / 2];
+    state.counters["worst_px"] = errors.back();
+  }
 }
 BENCHMARK(BM_PlanarTargetStep)
     ->ArgNames({"w", "h", "card"})

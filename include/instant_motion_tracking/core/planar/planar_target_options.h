@@ -20,7 +20,7 @@ struct PlanarTargetOptions {
   double prediction_gate =
       0.06;  // fraction of the target's size; a pose from fewer than 2 min_points points farther
   bool refine = true;
-  int template_size = 256;
+  int template_size = 192;
   double refine_min_correlation = 0.75;
   double refine_max_correction =
       0.15;  // fraction of the target's size on screen; larger corrections are not used

@@ -5,14 +5,18 @@
 namespace imt {
 namespace {
 
+geometry_msgs::Point toPointMsg(const Eigen::Vector3d& p) {
+  geometry_msgs::Point q;
+  q.x = p.x();
+  q.y = p.y();
+  q.z = p.z();
+  return q;
+}
+
 // The image pixel (u, v)'s ray (through the lens: undistorted) on the plane z = 1 m.
 geometry_msgs::Point backProject(double u, double v, const CameraModel& k) {
   const cv::Point2d ideal = k.undistort(cv::Point2d(u, v));
-  geometry_msgs::Point p;
-  p.x = (ideal.x - k.cx) / k.fx;
-  p.y = (ideal.y - k.cy) / k.fy;
-  p.z = 1.0;
-  return p;
+  return toPointMsg(Eigen::Vector3d((ideal.x - k.cx) / k.fx, (ideal.y - k.cy) / k.fy, 1.0));
 }
 
 std_msgs::ColorRGBA colour(RegionStatus s) {
@@ -42,14 +46,6 @@ visualization_msgs::Marker lineMarker(const std_msgs::Header& header, const std:
   m.scale.x = width;
   m.lifetime = ros::Duration(0.5);
   return m;
-}
-
-geometry_msgs::Point toPointMsg(const Eigen::Vector3d& p) {
-  geometry_msgs::Point q;
-  q.x = p.x();
-  q.y = p.y();
-  q.z = p.z();
-  return q;
 }
 
 }  // namespace

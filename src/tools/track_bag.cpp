@@ -169,11 +169,18 @@ class TrackBagRun {
   }
 
   void play() {
-    // Frames for the planar targets' appearance alignment, only when there
-    // are targets: kept within planar_tracking.image_memory_mb, and read
-    // again from the bag for the frames beyond it.
-    if (!init_.planar_targets.empty() || !init_.image_targets.empty()) {
-      session_->setKeepImages(true);
+    // Frames for the trackers that read them: the planar targets' appearance
+    // alignment (kept only when there are targets), and the regions' look
+    // and own corners (anchors rest on regions). Kept within
+    // planar_tracking.image_memory_mb, and read again from the bag for the
+    // frames beyond it, as live has every frame: without them a region
+    // would be tracked on motion data alone through the frames whose images
+    // were dropped (the oldest, on a bag longer than the budget).
+    const bool targets = !init_.planar_targets.empty() || !init_.image_targets.empty();
+    const bool regions = (!init_.regions.empty() || !init_.anchors.empty()) &&
+                         config_.pipeline.region_tracking.usesImages();
+    if (targets) session_->setKeepImages(true);
+    if (targets || regions) {
       for (size_t i = 0; i < input_.frameStamps().size(); ++i) frame_index_[input_.frameStamps()[i]] = int(i);
       session_->setImageSource([this](double stamp) { return rereadFrame(stamp); });
     }

@@ -383,6 +383,49 @@ TEST_F(TrackBag, RegionLostAndFoundAgainIsNotedWithItsReason) {
   EXPECT_TRUE(said_found) << r.err;
 }
 
+// The same bag with an image budget of one frame: the regions' look reads
+// the frames the cache dropped again from the bag, so the region is tracked
+// exactly as with every frame kept (live has every frame). Without them it
+// ran on motion data alone through the dropped frames: no look taken at
+// frame 0, never lost while B is in view.
+TEST_F(TrackBag, RegionsReadTheFramesBeyondTheImageBudgetAgain) {
+  BagSpec spec;
+  spec.frames = 110;
+  const cv::Mat a = frameImage(0, spec.width, spec.height);
+  cv::Mat b;
+  cv::flip(frameImage(300, spec.width, spec.height), b, -1);
+  spec.image = [&](int i) { return i < 20 || i >= 90 ? a : b; };
+  const std::string bag = makeBag("budget.bag", spec);
+  const std::string init =
+      writeText("init_budget.yaml", "regions:\n  - {id: 1, stamp: 1000.0, box: [40, 30, 50, 40]}\n");
+  // One 160 x 120 gray frame is 0.018 MB.
+  std::string config = readFile(kSourceDir + "/config/default.yaml");
+  const std::string key = "image_memory_mb: 512.0";
+  ASSERT_NE(config.find(key), std::string::npos);
+  config.replace(config.find(key), key.size(), "image_memory_mb: 0.02");
+  const std::string small = writeText("budget.yaml", config);
+  const ToolRun full = run("--bag " + quote(bag) + " --init " + quote(init) + " --out-dir " + quote(path("out_full")));
+  const ToolRun few = run("--bag " + quote(bag) + " --init " + quote(init) + " --config " + quote(small) +
+                          " --out-dir " + quote(path("out_few")));
+  ASSERT_EQ(full.status, 0) << full.err;
+  ASSERT_EQ(few.status, 0) << few.err;
+  const nlohmann::json jf = nlohmann::json::parse(readFile(path("out_full") + "/summary.json"));
+  const nlohmann::json jb = nlohmann::json::parse(readFile(path("out_few") + "/summary.json"));
+  EXPECT_EQ(jf["frames_read_again"].get<int>(), 0);
+  EXPECT_GT(jb["frames_read_again"].get<int>(), 100);  // nearly every frame, for the region
+  const auto rows_full = readCsv(path("out_full") + "/regions.csv");
+  const auto rows_few = readCsv(path("out_few") + "/regions.csv");
+  ASSERT_EQ(rows_full.size(), 1u + spec.frames);
+  ASSERT_EQ(rows_few.size(), rows_full.size());
+  for (size_t i = 0; i < rows_full.size(); ++i) ASSERT_EQ(rows_few[i], rows_full[i]) << "regions.csv row " << i;
+  // And the look did its work in both: lost while B is in view, found on
+  // A's first frame back.
+  int lost = 0;
+  for (int i = 1; i <= spec.frames; ++i) lost += rows_few[i][6] == "lost";
+  EXPECT_GT(lost, 0);
+  EXPECT_EQ(rows_few[1 + 90][6], "tracked");
+}
+
 TEST_F(TrackBag, DecoderWarningsBecomeOneCountedWarning) {
   // libpng decodes a PNG whose ancillary tEXt chunk has a bad CRC and prints
   // "libpng warning: tEXt: CRC error" on stderr; the tool captures that and

@@ -96,7 +96,7 @@ struct PlanarTargetOptions {
     v("refine_search_margin", refine_search_margin,
       "by which that match must beat the best one elsewhere (no repeated-pattern confusion)");
     v("image_memory_mb", image_memory_mb,
-      "MB of gray frames kept for the alignment (oldest dropped first)");
+      "MB of gray frames kept for the alignment and the regions' look (oldest dropped first; track_bag reads the rest again)");
     v("max_targets", max_targets,
       "planar targets tracked at most (each costs milliseconds per frame); add_planar_target and INIT.yaml "
       "are refused beyond");

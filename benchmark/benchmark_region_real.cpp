@@ -122,6 +122,87 @@ Row runOurs(const imt::test::BoxSequence& seq, const std::vector<cv::Mat>& gray,
   });
 }
 
+// --mid: the box is given at the middle frame (the first scored one from
+// half way), and the frames before it (tracked backwards) and after it are
+// scored apart. This package runs offline, as track_bag does (a session in
+// Mode::kOffline over the whole sequence, the region added at its frame, each
+// frame's state read with statesAt()).
+struct Halves {
+  Row backward, forward;
+};
+
+Row scoreOf(const imt::test::BoxScore& score, int frames, double seconds) {
+  const double auc = score.successAuc();
+  return {auc, score.meanIou(), score.precision20(), seconds > 0 ? frames / seconds : 0, auc, auc};
+}
+
+Halves runOursMid(const imt::test::BoxSequence& seq, const std::vector<cv::Mat>& gray, int mid,
+                  const cv::Rect2d& start) {
+  const auto t0 = Clock::now();
+  imt::TrackingSession session(g_config.pipeline, imt::TrackingSession::Mode::kOffline);
+  // The frames beyond the image budget, as track_bag reads them again from the bag.
+  session.setImageSource([&](double stamp) {
+    const int f = static_cast<int>(std::lround(stamp * seq.fps()));
+    return f >= 1 && f <= seq.frames() ? gray[f - 1] : cv::Mat();
+  });
+  for (int f = 1; f <= seq.frames(); ++f) {
+    session.analyze(gray[f - 1], seq.stamp(f));
+    session.advance();
+    session.takeResults();
+  }
+  session.advance(/*all=*/true);
+  session.takeResults();
+  uint32_t id = 0;
+  std::string err;
+  Halves h;
+  if (!session.addRegion(1, seq.stamp(mid), start, &id, &err)) {
+    std::fprintf(stderr, "%s: the region was refused at frame %d: %s\n", seq.name().c_str(), mid, err.c_str());
+    return h;
+  }
+  imt::test::BoxScore back, fwd;
+  for (int f = 1; f <= seq.frames(); ++f) {
+    if (f == mid || !seq.scored(f)) continue;
+    imt::FrameResult r;
+    bool ok = false;
+    cv::Rect2d box;
+    if (session.statesAt(seq.stamp(f), &r, &err))
+      for (const imt::RegionState& s : r.regions)
+        if (s.id == id) {
+          box = s.extent();
+          ok = s.status != imt::RegionStatus::kLost;
+          if (g_trace)
+            std::fprintf(stderr, "%s %d iou %.2f %s app %.2f conf %.2f inliers %zu box %.0f %.0f %.0f %.0f truth %.0f %.0f %.0f %.0f %s\n",
+                         seq.name().c_str(), f, imt::test::iouClipped(box, seq.box(f), gray[0].size()),
+                         imt::regionStatusName(s.status), s.appearance_score, s.confidence, s.inliers.size(), box.x,
+                         box.y, box.width, box.height, seq.box(f).x, seq.box(f).y, seq.box(f).width,
+                         seq.box(f).height, s.reason.c_str());
+        }
+    (f < mid ? back : fwd).add(ok, box, seq.box(f), gray[0].size());
+  }
+  const double seconds = std::chrono::duration<double>(Clock::now() - t0).count();
+  // The frames/s of the whole run (the analysis of every frame, both halves tracked).
+  h.backward = scoreOf(back, seq.frames(), seconds);
+  h.forward = scoreOf(fwd, seq.frames(), seconds);
+  return h;
+}
+
+Halves midFromStarts(const imt::test::BoxSequence& seq, int runs, int mid,
+                     const std::function<Halves(const cv::Rect2d&)>& one) {
+  Halves m;
+  for (int k = 0; k < runs; ++k) {
+    const Halves h = one(nudged(seq.box(mid), k));
+    for (auto [r, sum] : {std::pair{&h.backward, &m.backward}, std::pair{&h.forward, &m.forward}}) {
+      sum->auc += r->auc / runs;
+      sum->iou += r->iou / runs;
+      sum->p20 += r->p20 / runs;
+      sum->fps += r->fps / runs;
+      sum->auc_min = k == 0 ? r->auc : std::min(sum->auc_min, r->auc);
+      sum->auc_max = k == 0 ? r->auc : std::max(sum->auc_max, r->auc);
+    }
+  }
+  return m;
+}
+
 #ifdef IMT_HAVE_OPENCV_TRACKING
 Row runPeer(const imt::test::BoxSequence& seq, const std::vector<cv::Mat>& colour, cv::Ptr<cv::Tracker> t,
             const cv::Rect2d& start) {
@@ -140,25 +221,49 @@ Row runPeer(const imt::test::BoxSequence& seq, const std::vector<cv::Mat>& colou
     return ok;
   });
 }
+
+// --mid for a peer: a fresh tracker from the middle frame's box each way,
+// over the frames after it and over the frames before it in reverse.
+Halves runPeerMid(const imt::test::BoxSequence& seq, const std::vector<cv::Mat>& colour,
+                  const std::function<cv::Ptr<cv::Tracker>()>& make, int mid, const cv::Rect2d& start) {
+  Halves h;
+  for (const int dir : {-1, 1}) {
+    cv::Ptr<cv::Tracker> t = make();
+    imt::test::BoxScore score;
+    const auto t0 = Clock::now();
+    t->init(colour[mid - 1], cv::Rect(start));
+    int n = 0;
+    for (int f = mid + dir; f >= 1 && f <= seq.frames(); f += dir, ++n) {
+      cv::Rect r;
+      const bool ok = t->update(colour[f - 1], r);
+      if (seq.scored(f)) score.add(ok, cv::Rect2d(r), seq.box(f), colour[0].size());
+    }
+    const double seconds = std::chrono::duration<double>(Clock::now() - t0).count();
+    (dir < 0 ? h.backward : h.forward) = scoreOf(score, n, seconds);
+  }
+  return h;
+}
 #endif
 
 }  // namespace
 
 constexpr char kUsage[] =
     "usage: benchmark_region_real [--ours-only] [--no-appearance] [--set option=value] [--trace] [--trace-peers]\n"
-    "                             [--starts N] [sequence...]\n"
+    "                             [--starts N] [--mid] [sequence...]\n"
     "  --ours-only       leave out OpenCV's KCF and CSRT\n"
     "  --no-appearance   our tracker on motion data alone (no look, no own corners)\n"
     "  --set name=value  a region_tracking option (as in config YAML)\n"
     "  --trace           our tracker's state on every frame (implies --ours-only)\n"
     "  --trace-peers     the peers' boxes on every frame\n"
     "  --starts N        mean of N runs: from the first box and N - 1 nudged copies\n"
+    "  --mid             the box given at the middle frame; the halves before it (tracked\n"
+    "                    backwards; ours offline, as track_bag) and after it scored apart\n"
     "  sequence          only these (names as in the table; default every one found)\n"
     "Reads ../shared/data beside the package, or $IMT_SHARED_DATA.\n";
 
 int main(int argc, char** argv) {
   cv::setNumThreads(1);
-  bool ours_only = false;
+  bool ours_only = false, mid_mode = false;
   int starts = 1;
   std::set<std::string> only;
   for (int i = 1; i < argc; ++i) {
@@ -173,6 +278,7 @@ int main(int argc, char** argv) {
     }
     else if (a == "--trace") g_trace = ours_only = true;
     else if (a == "--trace-peers") g_trace_peers = true;
+    else if (a == "--mid") mid_mode = true;
     else if (a == "--starts" && i + 1 < argc) {
       starts = std::atoi(argv[++i]);
       if (starts < 1) {
@@ -206,7 +312,8 @@ int main(int argc, char** argv) {
       return 2;
     }
   }
-  std::printf("Region tracking on real video (%s), one thread, first frame's box given", dir.c_str());
+  std::printf("Region tracking on real video (%s), one thread, %s box given", dir.c_str(),
+              mid_mode ? "the middle frame's (halves scored apart)" : "first frame's");
   if (starts > 1) std::printf(" (means of %d runs from it and nudged copies)", starts);
   std::printf("\n| sequence | tracker | frames | success AUC |%s mean IoU | P@20px | frames/s |\n",
               starts > 1 ? " AUC min..max |" : "");
@@ -224,10 +331,35 @@ int main(int argc, char** argv) {
       gray.push_back(seq.gray(f));
     }
     std::vector<std::pair<std::string, Row>> results;
-    results.emplace_back("instant_motion_tracking",
-                         runFromStarts(seq, starts, [&](const cv::Rect2d& b) { return runOurs(seq, gray, b); }));
+    // The frames each row is scored over.
+    int frames_before = 0, frames_after = 0;
+    if (mid_mode) {
+      const int mid = seq.middleFrame();
+      frames_before = mid - 1;
+      frames_after = seq.frames() - mid;
+      const auto add = [&](const std::string& name, const Halves& h) {
+        results.emplace_back(name + ", backward", h.backward);
+        results.emplace_back(name + ", forward", h.forward);
+      };
+      add("instant_motion_tracking", midFromStarts(seq, starts, mid, [&](const cv::Rect2d& b) {
+            return runOursMid(seq, gray, mid, b);
+          }));
 #ifdef IMT_HAVE_OPENCV_TRACKING
-    if (!ours_only) {
+      if (!ours_only) {
+        add("OpenCV KCF", midFromStarts(seq, starts, mid, [&](const cv::Rect2d& b) {
+              return runPeerMid(seq, colour, [] { return cv::TrackerKCF::create(); }, mid, b);
+            }));
+        add("OpenCV CSRT", midFromStarts(seq, starts, mid, [&](const cv::Rect2d& b) {
+              return runPeerMid(seq, colour, [] { return cv::TrackerCSRT::create(); }, mid, b);
+            }));
+      }
+#endif
+    } else {
+      results.emplace_back("instant_motion_tracking",
+                           runFromStarts(seq, starts, [&](const cv::Rect2d& b) { return runOurs(seq, gray, b); }));
+    }
+#ifdef IMT_HAVE_OPENCV_TRACKING
+    if (!ours_only && !mid_mode) {
       results.emplace_back("OpenCV KCF", runFromStarts(seq, starts, [&](const cv::Rect2d& b) {
                              return runPeer(seq, colour, cv::TrackerKCF::create(), b);
                            }));
@@ -237,7 +369,9 @@ int main(int argc, char** argv) {
     }
 #endif
     for (const auto& [name, r] : results) {
-      std::printf("| %s | %s | %d | %.3f |", seq.name().c_str(), name.c_str(), seq.frames(), r.auc);
+      const bool before = name.size() > 10 && name.compare(name.size() - 10, 10, ", backward") == 0;
+      const int frames = !mid_mode ? seq.frames() : before ? frames_before : frames_after;
+      std::printf("| %s | %s | %d | %.3f |", seq.name().c_str(), name.c_str(), frames, r.auc);
       if (starts > 1) std::printf(" %.3f..%.3f |", r.auc_min, r.auc_max);
       std::printf(" %.3f | %.3f | %.1f |\n", r.iou, r.p20, r.fps);
       std::fflush(stdout);

@@ -49,6 +49,12 @@ class BoxSequence {
   double stamp(int f) const { return f / fps_; }
   // Frame f has a ground-truth box that counts in the score.
   bool scored(int f) const { return scored_[f - 1]; }
+  // The frame a box is given at mid-sequence: the first scored one from half way.
+  int middleFrame() const {
+    for (int f = std::max(1, frames() / 2); f <= frames(); ++f)
+      if (scored(f)) return f;
+    return std::max(1, frames() / 2);
+  }
   // The ground-truth box of frame f (0-based pixels, top-left pixel corner at (0, 0)).
   const cv::Rect2d& box(int f) const { return boxes_[f - 1]; }
   // Frame f in colour / gray (empty when it cannot be read).

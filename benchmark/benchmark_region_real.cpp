@@ -9,7 +9,7 @@
 // IoU, precision at 20 px, and frames/s (tracking only, decoding excluded).
 // Single-threaded (cv::setNumThreads(1)).
 //
-//   make -C _build benchmarks && taskset -c 0 _build/benchmark/benchmark_region_real [--ours-only] [--no-appearance] [--set option=value] [--trace] [--trace-peers] [--starts N] [sequence...]
+//   make -C _build benchmarks && taskset -c 0 _build/benchmark/benchmark_region_real [--ours-only] [--no-appearance] [--set option=value] [--trace] [--trace-peers] [--starts N] [--mid] [sequence...]
 #include "instant_motion_tracking/core/tracking_session.h"
 #include "instant_motion_tracking/io/config.h"
 #include "set_option.h"

@@ -4,6 +4,8 @@
 // (status 124) instead of blocking the suite.
 #include "track_bag_fixture.h"
 
+#include <cstdio>
+
 namespace imt {
 namespace {
 
@@ -412,7 +414,8 @@ TEST_F(TrackBag, RegionsReadTheFramesBeyondTheImageBudgetAgain) {
   const nlohmann::json jf = nlohmann::json::parse(readFile(path("out_full") + "/summary.json"));
   const nlohmann::json jb = nlohmann::json::parse(readFile(path("out_few") + "/summary.json"));
   EXPECT_EQ(jf["frames_read_again"].get<int>(), 0);
-  EXPECT_GT(jb["frames_read_again"].get<int>(), 100);  // nearly every frame, for the region
+  std::printf("one-frame image budget: %d frames read again\n", jb["frames_read_again"].get<int>());
+  EXPECT_GT(jb["frames_read_again"].get<int>(), 100);  // measured 237: the 110 frames, some more than once
   const auto rows_full = readCsv(path("out_full") + "/regions.csv");
   const auto rows_few = readCsv(path("out_few") + "/regions.csv");
   ASSERT_EQ(rows_full.size(), 1u + spec.frames);

@@ -164,9 +164,9 @@ TEST_P(RegionRealMid, MiddleFrameBoxIsFollowedBothWays) {
 // 0.702..0.710, V24_7 0.857..0.874 / 0.714..0.740. The floors are a little
 // under the lowest of those (a pixel's change of the box moves a run within
 // them), Human3's forward half well under its wide spread. V25_2's backward
-// half is low for every box tracker: the box given at frame 26 bounds the
-// target turned by ~45 degrees, and the region turns back with it to an
-// extent half again the truth's.
+// half is low: the box given at frame 26 bounds the target turned by 25
+// degrees, and the region, taking it as unturned, turns back with it to an
+// extent larger than the truth's (docs/benchmarks.md).
 INSTANTIATE_TEST_SUITE_P(Sequences, RegionRealMid,
                          ::testing::Values(MidCase{"vot2015_car1", 0.74, 0.80},
                                            MidCase{"uav123_10fps_boat1", 0.84, 0.83},

@@ -131,13 +131,13 @@ void turnBack(cv::Rect2d* box, const cv::Point2d& c, double angle) {
 
 }  // namespace
 
-bool RegionAppearance::create(const cv::Mat& gray, const cv::Rect2d& box, int size, RegionAppearance* out) {
+bool RegionAppearance::create(const cv::Mat& gray, const cv::Rect2d& box, int size, RegionAppearance* out, double angle) {
   if (gray.empty() || gray.type() != CV_8UC1 || !(box.width >= 4 && box.height >= 4) || size < 4) return false;
   const double s = std::min(1.0, size / std::max(box.width, box.height));
   const cv::Size tsize(std::max(4, static_cast<int>(std::lround(box.width * s))),
                        std::max(4, static_cast<int>(std::lround(box.height * s))));
   cv::Mat t;
-  if (!sample(gray, box, tsize, 0.75, &t)) return false;
+  if (!sample(gray, box, tsize, 0.75, &t, angle)) return false;
   cv::Scalar mean, stddev;
   cv::meanStdDev(t, mean, stddev);
   if (stddev[0] < 2.0) return false;  // flat: every shift would match as well

@@ -91,10 +91,13 @@ RegionState RegionState::start(uint32_t id, const cv::Rect2d& box, double stamp)
 cv::Rect2d RegionState::extent() const {
   // A turn of a few degrees is not told from the turn's noise (the look
   // tries turns kLookTurnStep apart), and it costs: a square's extent grows
-  // by 10% at 3 degrees. The extent takes the turn in smoothly: half of it
-  // at kReportedTurn, nine tenths at three times that.
+  // by 10% at 3 degrees. The extent takes the turn since the region was
+  // given in smoothly: half of it at kReportedTurn, nine tenths at three
+  // times that.
   constexpr double t2 = RegionTracker::kReportedTurn * RegionTracker::kReportedTurn;
-  const double a = angle * angle * angle / (angle * angle + t2);
+  const double turn = std::remainder(angle - placed_angle, 2 * M_PI);
+  const double a = placed_angle + turn * turn * turn / (turn * turn + t2);
+  if (rectangle) return region_geometry::turnedExtent(box, a);
   return a == 0 ? box : region_geometry::reportedExtent(box, a);
 }
 

@@ -6,6 +6,7 @@
 
 #include "region_features.h"
 #include "region_geometry.h"
+#include "region_shape.h"
 
 #include <algorithm>
 #include <cmath>
@@ -95,6 +96,15 @@ void RegionTracker::addOwnFeatures(RegionState* state, const cv::Mat& image, int
 
 void RegionTracker::initFromImage(RegionState* state, const cv::Mat& image, const MotionData& md) const {
   if (!usable(image)) return;
+  // A rectangle (its sides on the frame's edges) is tracked as one: turned
+  // as found, its look and own features taken along its axes.
+  const PlacedShape shape = placedShape(image, state->box);
+  if (shape.rectangle) {
+    state->rectangle = true;
+    state->box = shape.box;
+    state->angle = state->placed_angle = shape.angle;
+    state->placed_aspect = shape.box.width / shape.box.height;
+  }
   if (options_.region_features > 0) {
     const int in_box = static_cast<int>(std::count_if(md.features.begin(), md.features.end(), [&](const FeatureMotion& f) {
       return state->box.contains(cv::Point2d(f.x, f.y));
@@ -102,7 +112,7 @@ void RegionTracker::initFromImage(RegionState* state, const cv::Mat& image, cons
     addOwnFeatures(state, image, in_box);
   }
   if (options_.appearance &&
-      RegionAppearance::create(image, state->box, options_.appearance_size, &state->appearance))
+      RegionAppearance::create(image, state->box, options_.appearance_size, &state->appearance, state->angle))
     state->first_appearance = state->appearance;
   // Its turns among the others' (appearance_budget) are staggered by id on
   // its first step, among the regions sharing that frame.
@@ -368,9 +378,13 @@ void RegionTracker::reacquire(RegionState* next, const cv::Mat& image) const {
                 next->lost_frames);
   const RegionAppearance look = next->appearance, first = next->first_appearance;
   const double interval = next->frame_interval, placed_aspect = next->placed_aspect;
+  const double placed_angle = next->placed_angle;
+  const bool rectangle = next->rectangle;
   *next = RegionState::start(next->id, m.box, next->stamp);
   next->angle = angle;
   next->placed_aspect = placed_aspect;
+  next->placed_angle = placed_angle;
+  next->rectangle = rectangle;
   next->appearance = look;
   next->first_appearance = first;
   next->frame_interval = interval;

@@ -37,10 +37,10 @@ struct AppearanceMatch {
 
 class RegionAppearance {
  public:
-  // The look of `box` in `gray` (CV_8UC1), scaled to `size` px along its
-  // longer side (at most 1:1). False when the box is mostly outside the
-  // image, smaller than 4 px, or flat (no contrast to match).
-  static bool create(const cv::Mat& gray, const cv::Rect2d& box, int size, RegionAppearance* out);
+  // The look of `box` turned by `angle` (rad) in `gray` (CV_8UC1), scaled to
+  // `size` px along its longer side (at most 1:1). False when the box is
+  // mostly outside the image, smaller than 4 px, or flat (no contrast to match).
+  static bool create(const cv::Mat& gray, const cv::Rect2d& box, int size, RegionAppearance* out, double angle = 0);
 
   bool valid() const { return !templ_.empty(); }
   // Scales searched: a tracked region's (its size is known within a few

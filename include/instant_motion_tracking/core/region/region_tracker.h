@@ -19,6 +19,13 @@
 // has motion vectors where the motion analysis's uniform grid gave it few.
 // They join the same fit, in both time directions.
 //
+// Shape (when the frame's image is given with the box): a box whose sides lie
+// on the frame's edges holds a rectangle (a poster, a screen), as drawn or
+// turned (the turned rectangle whose corners touch the box's sides, when the
+// edges run one way turned): the region is that rectangle, turned as found,
+// and its reported extent is the turned rectangle's (else a hedge between a
+// rectangle's and an ellipse's: what fills the box is unknown).
+//
 // Appearance (when the frames' images are given): each region keeps a small
 // template of its look (region_appearance.h), taken at placement and blended
 // with later looks on confident frames. After the motion step the template
@@ -84,6 +91,11 @@ struct RegionState {
   Eigen::Vector2d velocity = Eigen::Vector2d::Zero();  // px/frame of the box centre, in the tracking direction
   Eigen::Vector2d object_velocity = Eigen::Vector2d::Zero();  // px/frame relative to the background (camera) motion
   double scale_rate = 0;  // log size change per frame, smoothed as velocity is (what a coasting region keeps)
+  // Its box was seen to be a rectangle's when it was given (its sides on the
+  // frame's edges, region_shape.h), turned by `placed_angle` then: its extent
+  // is the turned rectangle's, not the hedged one.
+  bool rectangle = false;
+  double placed_angle = 0;
   double placed_aspect = 0;  // width / height of the box it was given (0: unknown); its look's
   double support = 0;              // reference inlier count (slowly decaying maximum)
   std::vector<uint32_t> inliers;   // feature IDs that support the region (sorted)
@@ -113,7 +125,7 @@ struct RegionState {
 
   static RegionState start(uint32_t id, const cv::Rect2d& box, double stamp);
   // The axis-aligned box around the region as seen: `box` turned by `angle`
-  // (what the outputs report; `box` itself when it has not turned).
+  // (what the outputs report; the box given when it has not turned since).
   cv::Rect2d extent() const;
   // The state with its direction of travel reversed (velocities negated).
   RegionState reversed() const;

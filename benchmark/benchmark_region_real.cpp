@@ -141,10 +141,7 @@ Halves runOursMid(const imt::test::BoxSequence& seq, const std::vector<cv::Mat>&
   const auto t0 = Clock::now();
   imt::TrackingSession session(g_config.pipeline, imt::TrackingSession::Mode::kOffline);
   // The frames beyond the image budget, as track_bag reads them again from the bag.
-  session.setImageSource([&](double stamp) {
-    const int f = static_cast<int>(std::lround(stamp * seq.fps()));
-    return f >= 1 && f <= seq.frames() ? gray[f - 1] : cv::Mat();
-  });
+  session.setImageSource(seq.framesByStamp(gray));
   for (int f = 1; f <= seq.frames(); ++f) {
     session.analyze(gray[f - 1], seq.stamp(f));
     session.advance();

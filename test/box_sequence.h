@@ -21,6 +21,7 @@
 #include <cmath>
 #include <cstdio>
 #include <fstream>
+#include <functional>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -49,6 +50,15 @@ class BoxSequence {
   double stamp(int f) const { return f / fps_; }
   // Frame f has a ground-truth box that counts in the score.
   bool scored(int f) const { return scored_[f - 1]; }
+  // `frames` (frames[f - 1] is frame f) by stamp, for
+  // TrackingSession::setImageSource(): empty for a stamp of no frame. Both
+  // must outlive the function.
+  std::function<cv::Mat(double)> framesByStamp(const std::vector<cv::Mat>& frames) const {
+    return [this, &frames](double stamp) {
+      const int f = static_cast<int>(std::lround(stamp * fps_));
+      return f >= 1 && f <= std::min(this->frames(), static_cast<int>(frames.size())) ? frames[f - 1] : cv::Mat();
+    };
+  }
   // The frame a box is given at mid-sequence: the first scored one from half way.
   int middleFrame() const {
     for (int f = std::max(1, frames() / 2); f <= frames(); ++f)

@@ -129,10 +129,7 @@ TEST_P(RegionRealMid, MiddleFrameBoxIsFollowedBothWays) {
     ASSERT_FALSE(gray.back().empty()) << c.sequence << " frame " << f;
   }
   TrackingSession session(PipelineOptions(), TrackingSession::Mode::kOffline);
-  session.setImageSource([&](double stamp) {
-    const int f = static_cast<int>(std::lround(stamp * seq.fps()));
-    return f >= 1 && f <= seq.frames() ? gray[f - 1] : cv::Mat();
-  });
+  session.setImageSource(seq.framesByStamp(gray));
   for (int f = 1; f <= seq.frames(); ++f) {
     session.analyze(gray[f - 1], seq.stamp(f));
     session.advance();

@@ -346,16 +346,21 @@ TEST_F(TrackBag, AnchorsWithoutImuAreTranslationOnly) {
   EXPECT_NEAR(std::sqrt(tx * tx + ty * ty + tz * tz), 2.0, 1e-6);
 }
 
-TEST_F(TrackBag, RegionLostAndFoundAgainIsNotedWithItsReason) {
-  // A still view of texture A, then 70 frames of an unrelated still view B,
-  // then A again: the region given on A stops looking like itself, is lost,
-  // and is found again when A is back.
+// A still view of texture A for 20 frames, then 70 frames of an unrelated
+// still view B, then A again (110 frames): a region given on A stops looking
+// like itself, is lost, and is found again when A is back.
+BagSpec lostAndFoundSpec() {
   BagSpec spec;
   spec.frames = 110;
   const cv::Mat a = frameImage(0, spec.width, spec.height);
   cv::Mat b;
   cv::flip(frameImage(300, spec.width, spec.height), b, -1);
-  spec.image = [&](int i) { return i < 20 || i >= 90 ? a : b; };
+  spec.image = [a, b](int i) { return i < 20 || i >= 90 ? a : b; };
+  return spec;
+}
+
+TEST_F(TrackBag, RegionLostAndFoundAgainIsNotedWithItsReason) {
+  const BagSpec spec = lostAndFoundSpec();
   const std::string init = writeText("init_lost.yaml", "regions:\n  - {id: 1, stamp: 1000.0, box: [40, 30, 50, 40]}\n");
   const std::string out = path("out_lost");
   const ToolRun r = run("--bag " + quote(makeBag("lost.bag", spec)) + " --init " + quote(init) + " --out-dir " +
@@ -391,12 +396,7 @@ TEST_F(TrackBag, RegionLostAndFoundAgainIsNotedWithItsReason) {
 // ran on motion data alone through the dropped frames: no look taken at
 // frame 0, never lost while B is in view.
 TEST_F(TrackBag, RegionsReadTheFramesBeyondTheImageBudgetAgain) {
-  BagSpec spec;
-  spec.frames = 110;
-  const cv::Mat a = frameImage(0, spec.width, spec.height);
-  cv::Mat b;
-  cv::flip(frameImage(300, spec.width, spec.height), b, -1);
-  spec.image = [&](int i) { return i < 20 || i >= 90 ? a : b; };
+  const BagSpec spec = lostAndFoundSpec();
   const std::string bag = makeBag("budget.bag", spec);
   const std::string init =
       writeText("init_budget.yaml", "regions:\n  - {id: 1, stamp: 1000.0, box: [40, 30, 50, 40]}\n");

@@ -9,13 +9,16 @@ namespace imt {
 namespace {
 
 // How concentrated the edges' orientation must be for a turned rectangle to
-// be tried: a poster's or a screen's edges and print run two ways (0.73-0.75
-// on POT-210's posters), a boat's hull, its railings and their reflections
-// less so (0.58-0.60 on UAV123's boat1), a textured card's not at all.
+// be tried: a poster's or a screen's edges and print run two ways (0.73-0.74
+// on POT-210's posters turned at their clips' middle frames), a boat's hull,
+// its railings and their reflections less so (0.56-0.57 on UAV123's boat1),
+// a textured card's not at all (0.02-0.07). docs/benchmarks.md has the
+// figures of every real start; the thresholds were chosen between them.
 constexpr double kMinConcentration = 0.7;
 // How much stronger than the box's mean the edges across each side must be,
-// on the weakest side: POT-210's turned posters 2.2-4.5, boat1's best
-// rectangle 0.6-1.7 (its railings run along the hull).
+// on the weakest side: POT-210's turned posters 2.1-5.8 and as drawn
+// 1.51-10.4, boat1's box as drawn 0.10-0.50 and, taken as a turned
+// rectangle (its railings run along the hull), 0.6-1.7.
 constexpr double kMinSideContrast = 1.5;
 // Turns under this (rad) are read as none: the sides' sampling would not
 // tell them apart.

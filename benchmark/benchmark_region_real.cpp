@@ -40,6 +40,12 @@ struct Row {
   double auc_min = 0, auc_max = 0;  // over the runs from nudged starts (--starts)
 };
 
+// The row of one run: its scores, and `frames` tracked in `seconds`.
+Row scoreOf(const imt::test::BoxScore& score, int frames, double seconds) {
+  const double auc = score.successAuc();
+  return {auc, score.meanIou(), score.precision20(), seconds > 0 ? frames / seconds : 0, auc, auc};
+}
+
 // Runs one tracker over the sequence: `step(frame number, &box)` tracks frame
 // f (from 1; frame 1 initialises) and returns false when it reports no box.
 Row run(const imt::test::BoxSequence& seq, const std::vector<cv::Mat>& frames,
@@ -53,8 +59,7 @@ Row run(const imt::test::BoxSequence& seq, const std::vector<cv::Mat>& frames,
     seconds += std::chrono::duration<double>(Clock::now() - t0).count();
     if (f > 1 && seq.scored(f)) score.add(ok, box, seq.box(f), frames[0].size());
   }
-  const double auc = score.successAuc();
-  return {auc, score.meanIou(), score.precision20(), seq.frames() / seconds, auc, auc};
+  return scoreOf(score, seq.frames(), seconds);
 }
 
 // --starts N: each tracker runs N times, from the first frame's box and from
@@ -70,18 +75,20 @@ cv::Rect2d nudged(const cv::Rect2d& b, int k) {
   return cv::Rect2d(b.x + n[0], b.y + n[1], b.width + n[2], b.height + n[3]);
 }
 
+// Adds run k of `runs` to their mean `m`, and its AUC to their spread.
+void addRun(const Row& r, int k, int runs, Row* m) {
+  m->auc += r.auc / runs;
+  m->iou += r.iou / runs;
+  m->p20 += r.p20 / runs;
+  m->fps += r.fps / runs;
+  m->auc_min = k == 0 ? r.auc : std::min(m->auc_min, r.auc);
+  m->auc_max = k == 0 ? r.auc : std::max(m->auc_max, r.auc);
+}
+
 // Mean of `runs` runs of `one(start box)`, with the spread of their AUC.
 Row runFromStarts(const imt::test::BoxSequence& seq, int runs, const std::function<Row(const cv::Rect2d&)>& one) {
   Row m;
-  for (int k = 0; k < runs; ++k) {
-    const Row r = one(nudged(seq.box(1), k));
-    m.auc += r.auc / runs;
-    m.iou += r.iou / runs;
-    m.p20 += r.p20 / runs;
-    m.fps += r.fps / runs;
-    m.auc_min = k == 0 ? r.auc : std::min(m.auc_min, r.auc);
-    m.auc_max = k == 0 ? r.auc : std::max(m.auc_max, r.auc);
-  }
+  for (int k = 0; k < runs; ++k) addRun(one(nudged(seq.box(1), k)), k, runs, &m);
   return m;
 }
 
@@ -130,11 +137,6 @@ Row runOurs(const imt::test::BoxSequence& seq, const std::vector<cv::Mat>& gray,
 struct Halves {
   Row backward, forward;
 };
-
-Row scoreOf(const imt::test::BoxScore& score, int frames, double seconds) {
-  const double auc = score.successAuc();
-  return {auc, score.meanIou(), score.precision20(), seconds > 0 ? frames / seconds : 0, auc, auc};
-}
 
 Halves runOursMid(const imt::test::BoxSequence& seq, const std::vector<cv::Mat>& gray, int mid,
                   const cv::Rect2d& start) {
@@ -188,14 +190,8 @@ Halves midFromStarts(const imt::test::BoxSequence& seq, int runs, int mid,
   Halves m;
   for (int k = 0; k < runs; ++k) {
     const Halves h = one(nudged(seq.box(mid), k));
-    for (auto [r, sum] : {std::pair{&h.backward, &m.backward}, std::pair{&h.forward, &m.forward}}) {
-      sum->auc += r->auc / runs;
-      sum->iou += r->iou / runs;
-      sum->p20 += r->p20 / runs;
-      sum->fps += r->fps / runs;
-      sum->auc_min = k == 0 ? r->auc : std::min(sum->auc_min, r->auc);
-      sum->auc_max = k == 0 ? r->auc : std::max(sum->auc_max, r->auc);
-    }
+    addRun(h.backward, k, runs, &m.backward);
+    addRun(h.forward, k, runs, &m.forward);
   }
   return m;
 }
@@ -327,16 +323,18 @@ int main(int argc, char** argv) {
       }
       gray.push_back(seq.gray(f));
     }
-    std::vector<std::pair<std::string, Row>> results;
-    // The frames each row is scored over.
-    int frames_before = 0, frames_after = 0;
+    // Each row: the tracker, its scores, and the frames it is scored over.
+    struct Result {
+      std::string name;
+      Row row;
+      int frames;
+    };
+    std::vector<Result> results;
     if (mid_mode) {
       const int mid = seq.middleFrame();
-      frames_before = mid - 1;
-      frames_after = seq.frames() - mid;
       const auto add = [&](const std::string& name, const Halves& h) {
-        results.emplace_back(name + ", backward", h.backward);
-        results.emplace_back(name + ", forward", h.forward);
+        results.push_back({name + ", backward", h.backward, mid - 1});
+        results.push_back({name + ", forward", h.forward, seq.frames() - mid});
       };
       add("instant_motion_tracking", midFromStarts(seq, starts, mid, [&](const cv::Rect2d& b) {
             return runOursMid(seq, gray, mid, b);
@@ -352,22 +350,23 @@ int main(int argc, char** argv) {
       }
 #endif
     } else {
-      results.emplace_back("instant_motion_tracking",
-                           runFromStarts(seq, starts, [&](const cv::Rect2d& b) { return runOurs(seq, gray, b); }));
-    }
+      results.push_back({"instant_motion_tracking",
+                         runFromStarts(seq, starts, [&](const cv::Rect2d& b) { return runOurs(seq, gray, b); }),
+                         seq.frames()});
 #ifdef IMT_HAVE_OPENCV_TRACKING
-    if (!ours_only && !mid_mode) {
-      results.emplace_back("OpenCV KCF", runFromStarts(seq, starts, [&](const cv::Rect2d& b) {
+      if (!ours_only) {
+        results.push_back({"OpenCV KCF", runFromStarts(seq, starts, [&](const cv::Rect2d& b) {
                              return runPeer(seq, colour, cv::TrackerKCF::create(), b);
-                           }));
-      results.emplace_back("OpenCV CSRT", runFromStarts(seq, starts, [&](const cv::Rect2d& b) {
+                           }),
+                           seq.frames()});
+        results.push_back({"OpenCV CSRT", runFromStarts(seq, starts, [&](const cv::Rect2d& b) {
                              return runPeer(seq, colour, cv::TrackerCSRT::create(), b);
-                           }));
-    }
+                           }),
+                           seq.frames()});
+      }
 #endif
-    for (const auto& [name, r] : results) {
-      const bool before = name.size() > 10 && name.compare(name.size() - 10, 10, ", backward") == 0;
-      const int frames = !mid_mode ? seq.frames() : before ? frames_before : frames_after;
+    }
+    for (const auto& [name, r, frames] : results) {
       std::printf("| %s | %s | %d | %.3f |", seq.name().c_str(), name.c_str(), frames, r.auc);
       if (starts > 1) std::printf(" %.3f..%.3f |", r.auc_min, r.auc_max);
       std::printf(" %.3f | %.3f | %.1f |\n", r.iou, r.p20, r.fps);

@@ -2,7 +2,8 @@
 // writes the results (docs: interface.md, "Offline tool: track_bag"). No
 // roscore needed. This file parses the options and wires the pieces together:
 // ros/bag_input (reading), ros/image_conversion (gray frames), core/pipeline
-// (the same code the nodelets run), io/ (INIT.yaml, CSV, summary.json).
+// (the same code the nodelets run), io/ (INIT.yaml, CSV, summary.json), and
+// track_bag_ledger.h (what the run dropped or refused, for the notes).
 //
 // On any bad input it exits non-zero with one line on stderr; warnings and
 // notes of a successful run are printed once each, after the run. Bad
@@ -18,6 +19,7 @@
 #include "instant_motion_tracking/ros/conversions.h"
 #include "instant_motion_tracking/ros/image_conversion.h"
 #include "track_bag_args.h"
+#include "track_bag_ledger.h"
 #include "track_bag_util.h"
 
 #include <console_bridge/console.h>
@@ -40,20 +42,16 @@
 namespace fs = std::filesystem;
 using imt::track_bag::Args;
 using imt::track_bag::defaultConfigPath;
-using imt::track_bag::DropInfo;
-using imt::track_bag::Drops;
 using imt::track_bag::fail;
 using imt::track_bag::Failure;
-using imt::track_bag::inOrder;
 using imt::track_bag::kUsage;
 using imt::track_bag::libraryLog;
-using imt::track_bag::noteDrop;
 using imt::track_bag::Notes;
 using imt::track_bag::parseArgs;
 using imt::track_bag::Progress;
+using imt::track_bag::RunLedger;
 using imt::track_bag::StderrCapture;
 using imt::track_bag::Stopwatch;
-using imt::track_bag::total;
 
 namespace {
 
@@ -83,11 +81,6 @@ class TrackBagRun {
     double stamp;
     std_msgs::Header header;
     ros::Time bag_time;
-  };
-  struct ResetInfo {
-    int count = 0;
-    int first_frame = 0;
-    double first_stamp = 0;
   };
 
   // Configuration, INIT.yaml (cheap to check, so first), the bag with every
@@ -202,8 +195,8 @@ class TrackBagRun {
     if (frames_ == 0) {
       // Every frame malformed (frames dropped by the time rules follow a
       // frame that was not): nothing to track.
-      const DropInfo& first = *inOrder(malformed_).front();
-      fail("no usable image on " + input_.imageTopic() + ": all " + std::to_string(malformedCount()) +
+      const imt::track_bag::DropInfo& first = ledger_.firstMalformed();
+      fail("no usable image on " + input_.imageTopic() + ": all " + std::to_string(ledger_.malformedCount()) +
            " frame(s) are malformed (first: " + first.first_where + ": " + first.first_reason + ")");
     }
   }
@@ -219,20 +212,17 @@ class TrackBagRun {
       session_->setCameraInfo(k);
       return;
     }
-    noteDrop(&info_refused_, why, "stamp " + imt::formatFixed(m.header.stamp.toSec(), 6));
+    ledger_.cameraInfoRefused(why, "stamp " + imt::formatFixed(m.header.stamp.toSec(), 6));
   }
-
-  int malformedCount() const { return total(malformed_); }
 
   void onImu(const sensor_msgs::Imu& m) {
     imt::ImuSample s;
     std::string reason;
     if (!imt::fromImuMsg(m, &s, &reason)) {
-      if (imu_dropped_++ == 0) imu_first_dropped_ = m.header.stamp.toSec();
+      ledger_.imuDropped(m.header.stamp.toSec());
       return;
     }
-    ++imu_used_;
-    ++imu_outcomes_[session_->addImu(s)];
+    ledger_.imuUsed(session_->addImu(s));
   }
 
   // "frame 3 (stamp 1000.100000) on /cam/image_raw"
@@ -256,8 +246,7 @@ class TrackBagRun {
       *why = reason + (decoder_said.empty() ? "" : " [" + decoder_said + "]");
       return false;
     }
-    if (!decoder_said.empty() && decoder_warnings_++ == 0)
-      first_decoder_warning_ = whereIs(im) + ": " + decoder_said;
+    if (!decoder_said.empty()) ledger_.decoderWarning(whereIs(im) + ": " + decoder_said);
     return true;
   }
 
@@ -269,7 +258,8 @@ class TrackBagRun {
     imt::BagImage im;
     std::string why;
     const auto it = frame_index_.find(stamp);
-    if (it != frame_index_.end() && input_.readFrame(it->second, &im, &why) && decode(im, &gray, &why)) ++rereads_;
+    if (it != frame_index_.end() && input_.readFrame(it->second, &im, &why) && decode(im, &gray, &why))
+      ledger_.frameReadAgain();
     stage_seconds_["reread"] += clock.lap();
     return gray;
   }
@@ -282,8 +272,7 @@ class TrackBagRun {
     if (!decode(im, &gray, &reason)) {
       // Dropped, as live (the motion-analysis nodelet warns and counts it):
       // not a frame of the run; one warning per cause after it.
-      noteDrop(&malformed_, reason, whereIs(im));
-      dropped_at_[im.index] = "frame " + std::to_string(im.index) + " was dropped: " + reason;
+      ledger_.malformedFrame(im.index, reason, whereIs(im));
       stage_seconds_["decode"] += clock.lap();
       return true;
     }
@@ -293,17 +282,11 @@ class TrackBagRun {
     if (!session_->lastDrop().empty()) {
       // A repeated stamp or one slightly behind: not a frame of the run
       // (counted in summary.json; the first one named in a note).
-      if (first_drop_.empty()) first_drop_ = "frame " + std::to_string(im.index) + ": " + session_->lastDrop();
-      dropped_at_.emplace(im.index, "frame " + std::to_string(im.index) + " was dropped by the time rules");
+      ledger_.timeDrop(im.index, session_->lastDrop());
       return true;
     }
-    if (!session_->lastAnalysisReset().empty() && im.index > 0) {
-      ResetInfo& ri = resets_[session_->lastAnalysisReset()];
-      if (ri.count++ == 0) {
-        ri.first_frame = im.index;
-        ri.first_stamp = stamp;
-      }
-    }
+    if (!session_->lastAnalysisReset().empty() && im.index > 0)
+      ledger_.analysisReset(session_->lastAnalysisReset(), im.index, stamp);
     if (k_info_.valid && !size_warned_ && std::string(session_->cameraSource()) != "camera_info") {
       size_warned_ = true;
       notes_.warn("image size " + std::to_string(gray.cols) + "x" + std::to_string(gray.rows) +
@@ -314,7 +297,7 @@ class TrackBagRun {
     }
     clock.lap();  // the session times its own stages
 
-    ++model_counts_[imt::motionModelName(md.camera.model)];
+    ledger_.frameModel(imt::motionModelName(md.camera.model));
     frames_out_.push_back({stamp, im.header(), std::max(im.bag_time, ros::TIME_MIN)});
     if (!camera_csv_.write(imt::cameraMotionRow(md), why)) return false;
     if (out_bag_) {
@@ -341,9 +324,9 @@ class TrackBagRun {
     uint32_t id;
     // An item given at a frame that was dropped names the frame's fault.
     auto refused = [&](const char* list, uint32_t item, int frame) {
-      const auto d = dropped_at_.find(frame);
+      const std::string dropped = ledger_.whyDropped(frame);
       fail(args_.init + ": " + list + " (id " + std::to_string(item) + "): " + err +
-           (d == dropped_at_.end() ? "" : " (" + d->second + ")"));
+           (dropped.empty() ? "" : " (" + dropped + ")"));
     };
     for (const imt::RegionInit& r : init_.regions) {
       const cv::Rect2d box(r.box[0], r.box[1], r.box[2], r.box[3]);
@@ -440,23 +423,7 @@ class TrackBagRun {
     }
     stage_seconds_["write"] += clock.lap();
 
-    for (const auto& [reason, ri] : resets_)
-      notes_.warn("motion analysis reset " + std::to_string(ri.count) + " time(s): " + reason +
-                  " (first at frame " + std::to_string(ri.first_frame) + ", stamp " +
-                  imt::formatFixed(ri.first_stamp, 6) + ")");
-    if (decoder_warnings_)
-      notes_.warn("the image decoder complained about " + std::to_string(decoder_warnings_) +
-                  " compressed frame(s) (first: " + first_decoder_warning_ + ")");
-    if (imu_dropped_)
-      notes_.warn("dropped " + std::to_string(imu_dropped_) + " IMU sample(s) with NaN/Inf values "
-                  "(first at stamp " + imt::formatFixed(imu_first_dropped_, 6) + ")");
-    if (const int gaps = imu_outcomes_[imt::ImuInput::kGap])
-      notes_.warn("the IMU stream has " + std::to_string(gaps) + " gap(s) longer than imu.max_gap_seconds " +
-                  "(no anchor orientation inside them; roll and pitch re-levelled after each)");
-    if (const int dropped = imu_outcomes_[imt::ImuInput::kDropped])
-      notes_.warn("the IMU orientation dropped " + std::to_string(dropped) + " sample(s) (NaN or out of order)");
-    if (const int restarts = imu_outcomes_[imt::ImuInput::kReset])
-      notes_.warn("the IMU orientation restarted " + std::to_string(restarts) + " time(s) (IMU time jumped back)");
+    ledger_.addNotes(session_->timeDrops(), &notes_);
     using Source = imt::AnchorManager::RotationSource;
     if (!input_.imuTopic().empty() && session_->rotationSource() == Source::kNone)
       notes_.warn("IMU-to-camera rotation unknown (" + tf_why_ +
@@ -465,17 +432,6 @@ class TrackBagRun {
     if (session_->rotationSource() == Source::kVideo)
       notes_.note("IMU-to-camera rotation estimated from the video (no tf: " + tf_why_ +
                   "); anchors are calibrating until the frame it was found at");
-    for (const DropInfo* d : inOrder(malformed_))
-      notes_.warn(std::to_string(d->count) + " malformed frame(s) dropped: " + d->first_reason + " (first: " +
-                  d->first_where + ")");
-    for (const DropInfo* d : inOrder(info_refused_))
-      notes_.warn(std::to_string(d->count) + " camera_info message(s) refused: " + d->first_reason + " (first at " +
-                  d->first_where + ")");
-    const auto& drops = session_->timeDrops();
-    if (drops.duplicate + drops.behind > 0)
-      notes_.warn(std::to_string(drops.duplicate + drops.behind) + " frame(s) dropped by the time rules (" +
-                  std::to_string(drops.duplicate) + " repeated stamps, " + std::to_string(drops.behind) +
-                  " slightly behind the newest; first: " + first_drop_ + ")");
     if (const size_t gaps = session_->timeGaps())
       notes_.note(std::to_string(gaps) + " gap(s) in the frame stamps over cache_seconds, tracked across");
     const std::string disagreement = session_->rotationDisagreement();
@@ -509,21 +465,11 @@ class TrackBagRun {
     d["first_stamp"] = input_.frameStamps().front();
     d["last_stamp"] = input_.frameStamps().back();
     d["stamps_pass_seconds"] = input_.stampsPassSeconds();
-    d["imu_samples"] = imu_used_;
-    d["imu_dropped"] = imu_dropped_;
     d["image_frame"] = input_.imageFrameId();
     d["imu_frame"] = orNull(imu_frame_);
     imt::addSessionDetails(*session_, &d);
-    d["frames_dropped"] = {{"duplicate_stamp", session_->timeDrops().duplicate},
-                           {"stamp_behind", session_->timeDrops().behind},
-                           {"malformed_image", malformedCount()}};
-    d["camera_info_refused"] = total(info_refused_);
+    ledger_.addDetails(session_->timeDrops(), &d);
     d["frame_gaps"] = session_->timeGaps();
-    d["frames_read_again"] = rereads_;
-    d["models"] = model_counts_;
-    nlohmann::json resets = nlohmann::json::object();
-    for (const auto& [reason, ri] : resets_) resets[reason] = ri.count;
-    d["resets"] = resets;
     d["init_entries"] = {{"regions", init_.regions.size()},
                          {"planar_targets", init_.planar_targets.size()},
                          {"image_targets", init_.image_targets.size()},
@@ -558,18 +504,8 @@ class TrackBagRun {
   StderrCapture capture_;
   bool size_warned_ = false;
   size_t frames_ = 0;
-  int rereads_ = 0;
-  std::string first_drop_;  // the first frame the time rules dropped, and why
+  RunLedger ledger_;  // what was dropped, refused, restarted or read again
   std::map<std::string, double> stage_seconds_;
-  std::map<std::string, int> model_counts_;
-  std::map<std::string, ResetInfo> resets_;
-  Drops malformed_, info_refused_;
-  std::map<int, std::string> dropped_at_;  // frame index -> why that frame is not in the run
-  std::map<imt::ImuInput, int> imu_outcomes_;
-  int imu_used_ = 0, imu_dropped_ = 0;
-  double imu_first_dropped_ = 0;
-  int decoder_warnings_ = 0;
-  std::string first_decoder_warning_;
   double play_seconds_ = 0, seconds_ = 0;
 };
 

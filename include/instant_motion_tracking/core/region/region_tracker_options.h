@@ -20,7 +20,7 @@ struct RegionTrackerOptions {
   double outlier_cut = 0.05;
   int min_features = 3;
   int min_inliers_scale = 6;
-  int min_inliers_similarity = 20;
+  int min_inliers_similarity = 12;
   double max_scale_change = 0.05;
   double max_rotation = 0.1;
   double velocity_blend = 0.7;

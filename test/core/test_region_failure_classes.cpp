@@ -160,6 +160,10 @@ Tracked track(const std::string& name,
 }
 
 int firstWhole(const std::vector<FrameTruth>& truth) { return firstWholeFrame(truth, 0); }
+// The first frame from half way on with the target wholly in view.
+int middleWhole(const std::vector<FrameTruth>& truth) {
+  return firstWholeFrame(truth, static_cast<int>(truth.size()) / 2);
+}
 
 // 1. A small target: ~35 x 85 px at 1280x720 (~9 x 21 px at the 320 px
 // analysis width), moving on its own in front of a textured wall while the
@@ -275,9 +279,7 @@ TEST(RegionFailureClass, StaticPatchPartlyCoveredAtInit) {
 // 4. A region given at the middle frame, tracked backwards and forwards
 // from there: each half is scored on its own.
 TEST(RegionFailureClass, GivenMidSequenceBothWays) {
-  const Tracked t = track("region_midstart", [](const std::vector<FrameTruth>& truth) {
-    return firstWholeFrame(truth, static_cast<int>(truth.size()) / 2);
-  });
+  const Tracked t = track("region_midstart", middleWhole);
   ASSERT_FALSE(t.states.empty());
   int nb = 0, nf = 0;
   const double backward = t.meanIou(0, t.start, &nb);
@@ -322,10 +324,7 @@ TEST(RegionFailureClass, GivenMidSequenceBothWays) {
 // follows the roll (the region's turn is still the camera's and its
 // look's). Seed 1 above does not show this.
 TEST(RegionFailureClass, RollingCardGivenMidSequenceForward) {
-  const Tracked t = track(
-      "region_midstart",
-      [](const std::vector<FrameTruth>& truth) { return firstWholeFrame(truth, static_cast<int>(truth.size()) / 2); },
-      RegionTrackerOptions(), 0, /*seed=*/4);
+  const Tracked t = track("region_midstart", middleWhole, RegionTrackerOptions(), 0, /*seed=*/4);
   ASSERT_FALSE(t.states.empty());
   int nf = 0;
   const double forward = t.meanIou(t.start + 1, static_cast<int>(t.truth.size()), &nf);

@@ -4,12 +4,13 @@
 // tracker is given the first frame's ground-truth box and runs frame by
 // frame, as live. This package runs whole (imt::TrackingSession: motion
 // analysis and region tracking, default options, gray frames); OpenCV's KCF
-// and CSRT (opencv_contrib) get the colour frames. Scores (OTB definitions,
+// and CSRT (opencv_contrib) get the colour frames (--peers-gray: the same
+// gray frames, as three channels). Scores (OTB definitions,
 // frames from the second; a lost region scores IoU 0): success AUC, mean
 // IoU, precision at 20 px, and frames/s (tracking only, decoding excluded).
 // Single-threaded (cv::setNumThreads(1)).
 //
-//   make -C _build benchmarks && taskset -c 0 _build/benchmark/benchmark_region_real [--ours-only] [--no-appearance] [--set option=value] [--trace] [--trace-peers] [--starts N] [--mid] [sequence...]
+//   make -C _build benchmarks && taskset -c 0 _build/benchmark/benchmark_region_real [--ours-only] [--no-appearance] [--set option=value] [--trace] [--trace-peers] [--peers-gray] [--starts N] [--mid] [sequence...]
 #include "instant_motion_tracking/core/tracking_session.h"
 #include "instant_motion_tracking/io/config.h"
 #include "set_option.h"
@@ -242,12 +243,13 @@ Halves runPeerMid(const imt::test::BoxSequence& seq, const std::vector<cv::Mat>&
 
 constexpr char kUsage[] =
     "usage: benchmark_region_real [--ours-only] [--no-appearance] [--set option=value] [--trace] [--trace-peers]\n"
-    "                             [--starts N] [--mid] [sequence...]\n"
+    "                             [--peers-gray] [--starts N] [--mid] [sequence...]\n"
     "  --ours-only       leave out OpenCV's KCF and CSRT\n"
     "  --no-appearance   our tracker on motion data alone (no look, no own corners)\n"
     "  --set name=value  a region_tracking option (as in config YAML)\n"
     "  --trace           our tracker's state on every frame (implies --ours-only)\n"
     "  --trace-peers     the peers' boxes on every frame\n"
+    "  --peers-gray      the peers get the gray frames this package gets, not the colour ones\n"
     "  --starts N        mean of N runs: from the first box and N - 1 nudged copies\n"
     "  --mid             the box given at the middle frame; the halves before it (tracked\n"
     "                    backwards; ours offline, as track_bag) and after it scored apart\n"
@@ -256,7 +258,7 @@ constexpr char kUsage[] =
 
 int main(int argc, char** argv) {
   cv::setNumThreads(1);
-  bool ours_only = false, mid_mode = false;
+  bool ours_only = false, mid_mode = false, peers_gray = false;
   int starts = 1;
   std::set<std::string> only;
   for (int i = 1; i < argc; ++i) {
@@ -271,6 +273,7 @@ int main(int argc, char** argv) {
     }
     else if (a == "--trace") g_trace = ours_only = true;
     else if (a == "--trace-peers") g_trace_peers = true;
+    else if (a == "--peers-gray") peers_gray = true;
     else if (a == "--mid") mid_mode = true;
     else if (a == "--starts" && i + 1 < argc) {
       starts = std::atoi(argv[++i]);
@@ -308,10 +311,12 @@ int main(int argc, char** argv) {
   std::printf("Region tracking on real video (%s), one thread, %s box given", dir.c_str(),
               mid_mode ? "the middle frame's (halves scored apart)" : "first frame's");
   if (starts > 1) std::printf(" (means of %d runs from it and nudged copies)", starts);
+  if (peers_gray) std::printf("; the peers given the gray frames");
   std::printf("\n| sequence | tracker | frames | success AUC |%s mean IoU | P@20px | frames/s |\n",
               starts > 1 ? " AUC min..max |" : "");
   std::printf("|---|---|---|---|%s---|---|---|\n", starts > 1 ? "---|" : "");
   std::map<std::string, std::vector<Row>> rows;  // tracker -> one row per sequence
+  [[maybe_unused]] const char* peer_frames = peers_gray ? " (gray)" : "";
   for (const imt::test::BoxSequence& seq : sequences) {
     if (!only.empty() && !only.count(seq.name())) continue;
     std::vector<cv::Mat> gray, colour;
@@ -322,6 +327,7 @@ int main(int argc, char** argv) {
         return 1;
       }
       gray.push_back(seq.gray(f));
+      if (peers_gray) cv::cvtColor(gray.back(), colour.back(), cv::COLOR_GRAY2BGR);
     }
     // Each row: the tracker, its scores, and the frames it is scored over.
     struct Result {
@@ -341,10 +347,10 @@ int main(int argc, char** argv) {
           }));
 #ifdef IMT_HAVE_OPENCV_TRACKING
       if (!ours_only) {
-        add("OpenCV KCF", midFromStarts(seq, starts, mid, [&](const cv::Rect2d& b) {
+        add(std::string("OpenCV KCF") + peer_frames, midFromStarts(seq, starts, mid, [&](const cv::Rect2d& b) {
               return runPeerMid(seq, colour, [] { return cv::TrackerKCF::create(); }, mid, b);
             }));
-        add("OpenCV CSRT", midFromStarts(seq, starts, mid, [&](const cv::Rect2d& b) {
+        add(std::string("OpenCV CSRT") + peer_frames, midFromStarts(seq, starts, mid, [&](const cv::Rect2d& b) {
               return runPeerMid(seq, colour, [] { return cv::TrackerCSRT::create(); }, mid, b);
             }));
       }
@@ -355,11 +361,11 @@ int main(int argc, char** argv) {
                          seq.frames()});
 #ifdef IMT_HAVE_OPENCV_TRACKING
       if (!ours_only) {
-        results.push_back({"OpenCV KCF", runFromStarts(seq, starts, [&](const cv::Rect2d& b) {
+        results.push_back({std::string("OpenCV KCF") + peer_frames, runFromStarts(seq, starts, [&](const cv::Rect2d& b) {
                              return runPeer(seq, colour, cv::TrackerKCF::create(), b);
                            }),
                            seq.frames()});
-        results.push_back({"OpenCV CSRT", runFromStarts(seq, starts, [&](const cv::Rect2d& b) {
+        results.push_back({std::string("OpenCV CSRT") + peer_frames, runFromStarts(seq, starts, [&](const cv::Rect2d& b) {
                              return runPeer(seq, colour, cv::TrackerCSRT::create(), b);
                            }),
                            seq.frames()});

@@ -368,6 +368,10 @@ TEST(RegionFailureClass, HiddenFor2sThenBack) {
   EXPECT_NEAR((hidden_to - hidden_from) / fps, 2.0, 0.2);
   EXPECT_GT(nb, 30);
   EXPECT_GT(na, 30);
+  // Seed 1 after 0.922; seeds 4-8 after 0.935 / 0.953 / 0.902 / 0.939 /
+  // 0.928 since a region found again is grown by its look at placement
+  // where a larger box matches better (0.902 / 0.909 / 0.890 / 0.893 /
+  // 0.876 before; seeds 1-3 the same).
   // Measured before 0.897, after 0.913 (seeds 2-4: 0.894 / 0.910, 0.889 /
   // 0.933, 0.884 / 0.903; seeds 5-8 after 0.876-0.905) since features are
   // weighed by how well their LK windows matched and the look at placement
@@ -413,6 +417,22 @@ TEST(RegionFailureClass, HiddenFor2sThenBack) {
 // With many regions (region_tracking.appearance_budget, 8 by default) a
 // region has its look checked on its turn only, in doubt or not, and a lost
 // one searches around its last place on its turns: the cost stays bounded.
+// region_hidden among 99 other regions: the target's mean IoU from 0.5 s
+// after it is wholly back in view (printed); *n: the frames scored.
+double hiddenAmong99Again(const Tracked& t, int* n) {
+  const int frames = static_cast<int>(t.truth.size());
+  int hidden_to = -1;
+  for (int k = 0; k < frames; ++k)
+    if (seenFraction(t.truth[k]) < 0.001) hidden_to = k + 1;
+  const int back = firstWholeFrame(t.truth, hidden_to);
+  EXPECT_GE(back, 0) << "the target does not come back";
+  if (back < 0) return 0;
+  const double again = t.meanIou(back + static_cast<int>(std::lround(0.5 * t.scene->options().fps)), frames, n);
+  std::printf("region_hidden among 99 other regions: mean IoU from 0.5 s after it is back %.3f over %d frames\n",
+              again, *n);
+  return again;
+}
+
 // The target among 99 other regions must be tracked about as well as alone,
 // through the partial cover at init and through the 2 s hiding (found again
 // later: those searches come every ceil(100 / 8) = 13 frames).
@@ -435,16 +455,12 @@ TEST(RegionFailureClass, TargetAmong99OtherRegions) {
   {
     const Tracked t = track("region_hidden", firstWhole, RegionTrackerOptions(), 99);
     ASSERT_FALSE(t.states.empty());
-    const int frames = static_cast<int>(t.truth.size());
-    int hidden_to = -1;
-    for (int k = 0; k < frames; ++k)
-      if (seenFraction(t.truth[k]) < 0.001) hidden_to = k + 1;
-    const int back = firstWholeFrame(t.truth, hidden_to);
-    ASSERT_GE(back, 0);
     int n = 0;
-    const double again = t.meanIou(back + static_cast<int>(std::lround(0.5 * t.scene->options().fps)), frames, &n);
-    std::printf("region_hidden among 99 other regions: mean IoU from 0.5 s after it is back %.3f over %d frames\n",
-                again, n);
+    const double again = hiddenAmong99Again(t, &n);
+    // Seeds 6-8 0.880 / 0.916 / 0.925 (0.799 / 0.834 / 0.789 before) since a
+    // region found again is grown by its look at placement where a larger
+    // box matches better; seeds 1-5 the same (0.888, 0.902, 0.910, 0.927,
+    // 0.968).
     // Measured 0.888 (seeds 2-4: 0.902, 0.907, 0.927; seeds 5-8 0.965,
     // 0.799, 0.834, 0.788 against 0.816, 0.709, 0.747, 0.784 before) since
     // features are weighed by how well their LK windows matched and the look
@@ -468,6 +484,24 @@ TEST(RegionFailureClass, TargetAmong99OtherRegions) {
     // Floor 0.05 under.
     EXPECT_GE(again, 0.83);
   }
+}
+
+// Found again while still partly out from behind the panel, the card
+// matched a box 10% smaller than itself best (seed 8: 71 x 56 px against 75
+// x 61), and 10-14 inliers then carried that size for the rest of the run:
+// with 99 other regions its look is checked every 13 frames, and the look
+// sizes only a region its features carry weakly. For 30 frames after it is
+// found its look at placement grows it where a larger box matches better
+// (RegionTracker::checkFoundSize).
+TEST(RegionFailureClass, HiddenAmong99OthersFoundAtItsSize) {
+  const Tracked t = track("region_hidden", firstWhole, RegionTrackerOptions(), 99, /*seed=*/8);
+  ASSERT_FALSE(t.states.empty());
+  int n = 0;
+  const double again = hiddenAmong99Again(t, &n);
+  EXPECT_GT(n, 30);
+  // Measured 0.925 (0.789 before the found size was checked); floor 0.04
+  // under, well above before.
+  EXPECT_GE(again, 0.88);
 }
 
 }  // namespace

@@ -157,6 +157,7 @@ RegionState RegionTracker::step(const RegionState& state, const MotionData& md, 
   const bool with_own = options_.region_features > 0 && usable(image) && usable(state_image);
   RegionState next =
       stepMotion(state, md, dir, prev_stamp, with_own ? state_image : cv::Mat(), image, pyramids, &own);
+  if (next.found_frames >= 0 && ++next.found_frames > kFoundSizeFrames) next.found_frames = -1;
   const bool use_look = options_.appearance && state.appearance.valid() && usable(image);
   if (use_look && state.status == RegionStatus::kLost) {
     reacquire(&next, image);

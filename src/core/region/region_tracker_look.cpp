@@ -206,6 +206,8 @@ void RegionTracker::checkAppearance(const RegionState& state, RegionState* next,
   }
   next->appearance_score = score;
   if (score >= o.appearance_accept) {
+    // Before its template learns this view at the box's size.
+    if (next->found_frames >= 0) checkFoundSize(next, image);
     next->appearance_misses = 0;
     next->confidence = std::max(next->confidence, lookConfidence(score));
     // Confident frames teach the template the region's current look, when
@@ -317,6 +319,22 @@ void RegionTracker::reshapeByLook(RegionState* next, const AppearanceMatch& m, d
   }
 }
 
+void RegionTracker::checkFoundSize(RegionState* next, const cv::Mat& image) const {
+  // The look at placement, at the aspect it was taken at: the latest look
+  // learns each frame's view at the box's size, and would agree with it.
+  // A match at the box's own size (within 1%, the aspect's rounding) leaves
+  // it as it is.
+  const RegionAppearance& look = next->first_appearance.valid() ? next->first_appearance : next->appearance;
+  static const std::vector<double> sizes = {1.0, 1.05, 1.1};
+  const cv::Rect2d at = region_geometry::withAspect(next->box, next->placed_aspect);
+  const AppearanceMatch m = look.match(image, at, kLookTurnMargin, sizes, next->angle);
+  if (!m.found || !(at.area() > 0)) return;
+  const double k = std::sqrt(m.box.area() / at.area());
+  if (!(k > 0) || !std::isfinite(k)) return;
+  if (std::abs(std::log(k)) < 0.01) return;
+  next->box = region_geometry::withSize(next->box, next->box.size() * k);
+}
+
 void RegionTracker::reacquire(RegionState* next, const cv::Mat& image) const {
   const RegionTrackerOptions& o = options_;
   next->lost_frames += 1;
@@ -388,6 +406,7 @@ void RegionTracker::reacquire(RegionState* next, const cv::Mat& image) const {
   next->appearance = look;
   next->first_appearance = first;
   next->frame_interval = interval;
+  next->found_frames = 0;
   next->appearance_score = m.score;
   next->confidence = lookConfidence(m.score);
   next->status = region_geometry::fractionInside(next->box, image_size_) < o.out_of_view_fraction

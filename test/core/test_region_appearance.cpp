@@ -556,6 +556,59 @@ TEST(RegionOwnFeatures, CarryARegionTheMotionDataHasNoFeaturesIn) {
             RegionStatus::kFeatureless);
 }
 
+// A walker the camera pans along with (OTB Human3 from its middle frame): the
+// box holds him on its left and the ground on its right, which moves with
+// the pan. A scale fit explains both within the inlier threshold as the box
+// growing 2-4% a frame. The region's own features are classed as the motion
+// analysis's are, by how far each moved from where the camera put it: the
+// scale is seen only between the two classes, and the box keeps its size.
+TEST(RegionOwnFeatures, AWalkerAndTheGroundPanningPastAreNoZoom) {
+  const cv::Mat ground = texture();
+  cv::Mat noise(kSize, CV_8UC1), walker;
+  cv::RNG rng(11);
+  rng.fill(noise, cv::RNG::UNIFORM, 0, 256);
+  cv::GaussianBlur(noise, walker, cv::Size(0, 0), 1.5);
+  cv::normalize(walker, walker, 0, 255, cv::NORM_MINMAX);
+  const cv::Rect2d box(100, 80, 100, 60);
+  const cv::Rect him(100, 80, 50, 60);  // the box's left half
+  const double pan = 2.5, walk = 1.3;   // px this frame: the ground, and him (1.2 px behind the pan)
+  const auto moved = [](const cv::Mat& m, double dx) {
+    cv::Mat out;
+    const cv::Mat shift = (cv::Mat_<double>(2, 3) << 1, 0, dx, 0, 1, 0);
+    cv::warpAffine(m, out, shift, m.size(), cv::INTER_LINEAR, cv::BORDER_REFLECT);
+    return out;
+  };
+  cv::Mat a = ground.clone(), mask(kSize, CV_8UC1, cv::Scalar(0));
+  walker(him).copyTo(a(him));
+  mask(him).setTo(255);
+  cv::Mat b = moved(ground, pan);
+  moved(walker, walk).copyTo(b, moved(mask, walk) > 127);
+
+  RegionTrackerOptions o;
+  o.appearance = false;  // the features alone
+  o.region_features = 24;
+  RegionTracker tracker(o, kSize);
+  const RegionState s = placed(tracker, a, box);
+  ASSERT_GE(s.own_points.size(), 12u);
+  MotionData md = emptyMotion(0.033);
+  md.camera.model = MotionModel::kTranslation;
+  md.camera.H = Eigen::Matrix3d::Identity();
+  md.camera.H(0, 2) = pan;
+  const RegionState next = tracker.step(s, md, Direction::kForward, 0, b, a);
+  ASSERT_EQ(next.status, RegionStatus::kTracked);
+  ASSERT_GE(next.inliers.size(), 6u);  // enough for a scale fit
+  const double growth = next.box.width / box.width;
+  std::printf("a walker and the ground panning past: the box's width x%.4f, its centre moved %.2f px\n", growth,
+              (next.box.x + next.box.width / 2) - (box.x + box.width / 2));
+  // Measured x1.0000 (the scale refused); x1.0185 before the own features
+  // had classes, and with them but the classes' own scales as the only
+  // test (each class's, fitted on the features of one side, scaled 0.7-1.3%
+  // a frame: the features on the walker's edge move with both). The same
+  // with him 0.9 to 1.6 px behind the pan. Within 0.5%: the fit of the two
+  // motions grows it by 1.4-2.5%.
+  EXPECT_NEAR(growth, 1.0, 0.005);
+}
+
 // A region given at the oldest cached frame is tracked on the next update;
 // that frame's push drops the one it was given at, so it is tracked to the
 // last frame first (it once stepped from a frame that had left the cache,

@@ -331,8 +331,9 @@ TEST(RegionFailureClass, RollingCardGivenMidSequenceForward) {
   std::printf("region_midstart, seed 4: given at frame %d: forward half mean IoU %.3f over %d frames\n", t.start,
               forward, nf);
   EXPECT_GT(nf, 100);
-  // Measured 0.828 (0.767 with the rotation from 15 inliers, 0.764 from
-  // 20); floor 0.03 under, above what 20 gave.
+  // Measured 0.827 (0.828 before a scale that a shift of each class of
+  // features explains as well was refused); 0.767 with the rotation from 15
+  // inliers, 0.764 from 20. Floor 0.03 under, above what 20 gave.
   EXPECT_GE(forward, 0.80);
 }
 

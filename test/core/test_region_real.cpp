@@ -69,6 +69,11 @@ TEST_P(RegionReal, FirstFrameBoxIsFollowed) {
   EXPECT_GE(score.successAuc(), c.min_auc);
 }
 
+// car1 0.782 (8 nudged starts 0.624..0.789, mean 0.761; 0.766 and 0.772
+// before) since a scale that a shift of each class of features explains as
+// well is refused (2026-11-29): one nudged start refuses a 1% shrink on 6
+// frames and ends 20% large. Its floor stays at 0.70, over that start: the
+// figure guarded is this box's.
 // Since a box holding a rectangle is read as one (2026-11-28, eighth
 // session; region_shape.h): V25_2 0.838 -> 0.949, V24_7 0.873 -> 0.927, the
 // others the same; their floors raised from 0.79 and 0.81 to 0.90 and 0.87
@@ -157,6 +162,10 @@ TEST_P(RegionRealMid, MiddleFrameBoxIsFollowedBothWays) {
   EXPECT_GE(forward.successAuc(), c.min_auc_forward);
 }
 
+// Human3 forward 0.666 (8 nudged boxes 0.131..0.666, mean 0.440; 0.273 and
+// 0.237 before) since a scale that a shift of each class of features
+// explains as well is refused, the region's own corners classed too
+// (2026-11-29); car1 forward's 8 boxes 0.844..0.861, the rest the same.
 // Measured (2026-11-28; backward / forward): car1 0.777 / 0.841, boat1 0.869
 // / 0.878, Human3 0.096 / 0.273, V25_2 0.894 / 0.893, V24_7 0.927 / 0.873.
 // From 8 nudged boxes (benchmark_region_real --mid --starts 8) each half

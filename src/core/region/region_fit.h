@@ -26,6 +26,9 @@ struct Vec {
   Eigen::Vector2d src_cam;  // src moved by the camera motion: the fit explains dst - src_cam
   double prior = 1, weight = 1, error = 0;
   double bg = -1;  // the motion analysis's background weight (-1: a region's own feature)
+  // A region's own feature: the same weight from its residual against the
+  // camera on this step alone (-1: a motion analysis feature).
+  double own_bg = -1;
   bool in_box = false;
 };
 
@@ -89,30 +92,44 @@ inline bool fitModel(const std::vector<Vec>& v, const Eigen::Vector2d& c, int do
   return true;
 }
 
-// A scale seen only between the motion analysis's two classes of features
-// (background, bg_weight >= 0.5, and moving), not within either: two motions
-// mixed, not a zoom. A card sliding off a wall patch, the wall's features
-// still on one side of the box and the card's moving on the other, is fitted
-// as the patch growing 3-4% a frame, each residual under the inlier
-// threshold; within each class the scale is ~1. A true zoom (the camera or
-// the target approaching) shows within the class that carries it. True when
-// the inliers (residual under `thr`) hold at least `min_each` of each class
-// and `m`'s scale change is more than twice either class's own (each fitted
-// about the same centre; a class too small or degenerate to fit is no
-// evidence either way: false).
+// A scale seen only between two classes of features (background, weight
+// 0.5 or more, and moving: the motion analysis's `bg`, or a region's own
+// feature's `own_bg`), not within either: two motions mixed, not a zoom. A
+// card sliding off a wall patch, the wall's features still on one side of
+// the box and the card's moving on the other, is fitted as the patch
+// growing 3-4% a frame, each residual under the inlier threshold; so is a
+// walker the camera pans along with, the ground on one side of his box. A
+// true zoom (the camera or the target approaching) shows within the class
+// that carries it. True when the inliers (residual under `thr`) hold at
+// least `min_each` of each class, `m`'s scale changes by kMinRefusedScale
+// or more, and either its scale change is more than twice either class's
+// own (each fitted about the same centre), or a shift of each class's own
+// explains their inliers as well as `m` does (a class's own scale, fitted
+// on a few features at one side of the box, is as noisy as the joint one:
+// the walker's 3-4 features gave 2-4% a frame). A class too small or
+// degenerate to fit is no evidence either way: false.
+constexpr double kMinRefusedScale = 0.005;
 inline bool scaleOnlyBetweenClasses(const std::vector<Vec>& v, const LocalModel& m, double thr, int min_each) {
-  if (m.dof < 3) return false;
-  std::vector<Vec> cls[2];
-  for (const Vec& e : v)
-    if (e.in_box && e.bg >= 0 && e.weight > 0 && (e.dst - m.apply(e.src_cam)).norm() < thr)
-      cls[e.bg >= 0.5 ? 0 : 1].push_back(e);
   const double joint = std::abs(m.scale() - 1);
-  for (const std::vector<Vec>& c : cls) {
-    LocalModel own;
-    if (static_cast<int>(c.size()) < min_each || !fitModel(c, m.c, 3, &own)) return false;
-    if (joint <= 2 * std::abs(own.scale() - 1)) return false;
+  if (m.dof < 3 || joint < kMinRefusedScale) return false;
+  std::vector<Vec> cls[2];
+  for (const Vec& e : v) {
+    const double bg = e.bg >= 0 ? e.bg : e.own_bg;
+    if (e.in_box && bg >= 0 && e.weight > 0 && (e.dst - m.apply(e.src_cam)).norm() < thr)
+      cls[bg >= 0.5 ? 0 : 1].push_back(e);
   }
-  return true;
+  bool each_without = true;  // neither class scales by half the joint change
+  double joint_rss = 0, shifts_rss = 0;
+  for (const std::vector<Vec>& c : cls) {
+    LocalModel own, shift;
+    if (static_cast<int>(c.size()) < min_each || !fitModel(c, m.c, 2, &shift)) return false;
+    if (!fitModel(c, m.c, 3, &own) || joint <= 2 * std::abs(own.scale() - 1)) each_without = false;
+    for (const Vec& e : c) {
+      joint_rss += e.weight * (e.dst - m.apply(e.src_cam)).squaredNorm();
+      shifts_rss += e.weight * (e.dst - shift.apply(e.src_cam)).squaredNorm();
+    }
+  }
+  return each_without || shifts_rss <= joint_rss;
 }
 
 inline Eigen::Vector2d applyH(const Eigen::Matrix3d& H, const Eigen::Vector2d& p) {

@@ -35,6 +35,12 @@ constexpr double kMinInsideToCoast = 0.75;
 // fitted to with a point to spare.
 constexpr int kMinClassInliers = 3;
 
+// A region's own feature counts as background in that check when it moved
+// with the camera within this (px, one step; background weight 0.5 there).
+// The motion analysis's weights build up over frames from 0.15 px a frame;
+// a single step of LK at full resolution is noisier than that.
+constexpr double kOwnBackgroundResidual = 0.75;
+
 // The usual interval between frames after a step of `interval` s that spans
 // `g` of the previous usual interval `usual`: learned from the first step,
 // followed slowly through jitter and rate drift, kept over gaps (dropped
@@ -340,8 +346,14 @@ RegionState RegionTracker::stepMotion(const RegionState& state, const MotionData
   if (!from_image.empty() && !to_image.empty() && !state.own_points.empty()) {
     *own = trackOwnFeatures(from_image, to_image, state.own_points, state.own_ids, state.box, H_dir, object_step,
                             o.region_feature_px, pyramids.state_image, pyramids.image);
-    for (const OwnFeature& f : *own)
+    for (const OwnFeature& f : *own) {
+      const size_t before = vecs.size();
       addVec(f.id, Eigen::Vector2d(f.from.x, f.from.y), Eigen::Vector2d(f.to.x, f.to.y), 1.0);
+      if (vecs.size() != before && camera_valid) {
+        const double r = (vecs.back().dst - vecs.back().src_cam).norm() / kOwnBackgroundResidual;
+        vecs.back().own_bg = 1 / (1 + r * r);
+      }
+    }
   }
   const int in_box = static_cast<int>(std::count_if(vecs.begin(), vecs.end(), [](const Vec& v) { return v.in_box; }));
   const double frac_inside = fractionInside(state.box, image_size_);

@@ -20,9 +20,9 @@ namespace {
 const cv::Size kSize(320, 240);
 
 // A smooth random texture (seeded: the same on every machine's RNG).
-cv::Mat texture() {
+cv::Mat texture(uint64_t seed = 7) {
   cv::Mat noise(kSize, CV_8UC1);
-  cv::RNG rng(7);
+  cv::RNG rng(seed);
   rng.fill(noise, cv::RNG::UNIFORM, 0, 256);
   cv::Mat t;
   cv::GaussianBlur(noise, t, cv::Size(0, 0), 1.5);
@@ -49,6 +49,14 @@ MotionData emptyMotion(double stamp) {
 double centreError(const cv::Rect2d& a, const cv::Rect2d& b) {
   const cv::Point2d d = (a.tl() + a.br()) / 2 - (b.tl() + b.br()) / 2;
   return std::hypot(d.x, d.y);
+}
+
+// A region tracker's options with its own features alone (24 of them, no look).
+RegionTrackerOptions ownFeaturesAlone() {
+  RegionTrackerOptions o;
+  o.appearance = false;
+  o.region_features = 24;
+  return o;
 }
 
 // A region placed on `box` of `image` by `tracker` (its look and, when on,
@@ -538,9 +546,7 @@ TEST(RegionAppearance, ScoreAtReadsTheBoxAsItStands) {
 TEST(RegionOwnFeatures, CarryARegionTheMotionDataHasNoFeaturesIn) {
   const cv::Mat img = texture();
   const cv::Rect2d box(100, 80, 40, 32);  // small: tracked at full resolution
-  RegionTrackerOptions o;
-  o.appearance = false;  // the features alone
-  o.region_features = 24;
+  const RegionTrackerOptions o = ownFeaturesAlone();
   RegionTracker tracker(o, kSize);
   const RegionState s = placed(tracker, img, box);
   ASSERT_GE(s.own_points.size(), 12u);
@@ -563,12 +569,7 @@ TEST(RegionOwnFeatures, CarryARegionTheMotionDataHasNoFeaturesIn) {
 // analysis's are, by how far each moved from where the camera put it: the
 // scale is seen only between the two classes, and the box keeps its size.
 TEST(RegionOwnFeatures, AWalkerAndTheGroundPanningPastAreNoZoom) {
-  const cv::Mat ground = texture();
-  cv::Mat noise(kSize, CV_8UC1), walker;
-  cv::RNG rng(11);
-  rng.fill(noise, cv::RNG::UNIFORM, 0, 256);
-  cv::GaussianBlur(noise, walker, cv::Size(0, 0), 1.5);
-  cv::normalize(walker, walker, 0, 255, cv::NORM_MINMAX);
+  const cv::Mat ground = texture(), walker = texture(11);
   const cv::Rect2d box(100, 80, 100, 60);
   const cv::Rect him(100, 80, 50, 60);  // the box's left half
   const double pan = 2.5, walk = 1.3;   // px this frame: the ground, and him (1.2 px behind the pan)
@@ -584,9 +585,7 @@ TEST(RegionOwnFeatures, AWalkerAndTheGroundPanningPastAreNoZoom) {
   cv::Mat b = moved(ground, pan);
   moved(walker, walk).copyTo(b, moved(mask, walk) > 127);
 
-  RegionTrackerOptions o;
-  o.appearance = false;  // the features alone
-  o.region_features = 24;
+  const RegionTrackerOptions o = ownFeaturesAlone();
   RegionTracker tracker(o, kSize);
   const RegionState s = placed(tracker, a, box);
   ASSERT_GE(s.own_points.size(), 12u);
@@ -649,9 +648,7 @@ TEST(RegionOwnFeatures, ManyRegionsShareWholeFramePyramids) {
   // added in the past.
   const cv::Mat img = texture();
   const cv::Rect2d box(100, 80, 40, 32);
-  RegionTrackerOptions o;
-  o.appearance = false;  // the features alone
-  o.region_features = 24;
+  const RegionTrackerOptions o = ownFeaturesAlone();
   constexpr int kFrames = 12;
   const auto frameAt = [&](int k) { return shifted(img, 2 * k, k); };
   const auto truthAt = [&](int k) { return box + cv::Point2d(2 * k, k); };

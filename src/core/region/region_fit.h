@@ -26,9 +26,6 @@ struct Vec {
   Eigen::Vector2d src_cam;  // src moved by the camera motion: the fit explains dst - src_cam
   double prior = 1, weight = 1, error = 0;
   double bg = -1;  // the motion analysis's background weight (-1: a region's own feature)
-  // A region's own feature: the same weight from its residual against the
-  // camera on this step alone (-1: a motion analysis feature).
-  double own_bg = -1;
   bool in_box = false;
 };
 
@@ -93,8 +90,10 @@ inline bool fitModel(const std::vector<Vec>& v, const Eigen::Vector2d& c, int do
 }
 
 // A scale seen only between two classes of features (background, weight
-// 0.5 or more, and moving: the motion analysis's `bg`, or a region's own
-// feature's `own_bg`), not within either: two motions mixed, not a zoom. A
+// 0.5 or more, and moving: the motion analysis's `bg`; a region's own
+// feature weighs 1 / (1 + (r / own_residual)^2) from how far, r, it moved
+// from where the camera put it on this step, and has no class when
+// `own_residual` is 0), not within either: two motions mixed, not a zoom. A
 // card sliding off a wall patch, the wall's features still on one side of
 // the box and the card's moving on the other, is fitted as the patch
 // growing 3-4% a frame, each residual under the inlier threshold; so is a
@@ -109,12 +108,18 @@ inline bool fitModel(const std::vector<Vec>& v, const Eigen::Vector2d& c, int do
 // the walker's 3-4 features gave 2-4% a frame). A class too small or
 // degenerate to fit is no evidence either way: false.
 constexpr double kMinRefusedScale = 0.005;
-inline bool scaleOnlyBetweenClasses(const std::vector<Vec>& v, const LocalModel& m, double thr, int min_each) {
+inline bool scaleOnlyBetweenClasses(const std::vector<Vec>& v, const LocalModel& m, double thr, int min_each,
+                                    double own_residual) {
   const double joint = std::abs(m.scale() - 1);
   if (m.dof < 3 || joint < kMinRefusedScale) return false;
+  const auto weightOf = [&](const Vec& e) {
+    if (e.bg >= 0 || !(own_residual > 0)) return e.bg;
+    const double r = (e.dst - e.src_cam).norm() / own_residual;
+    return 1 / (1 + r * r);
+  };
   std::vector<Vec> cls[2];
   for (const Vec& e : v) {
-    const double bg = e.bg >= 0 ? e.bg : e.own_bg;
+    const double bg = weightOf(e);
     if (e.in_box && bg >= 0 && e.weight > 0 && (e.dst - m.apply(e.src_cam)).norm() < thr)
       cls[bg >= 0.5 ? 0 : 1].push_back(e);
   }

@@ -346,14 +346,8 @@ RegionState RegionTracker::stepMotion(const RegionState& state, const MotionData
   if (!from_image.empty() && !to_image.empty() && !state.own_points.empty()) {
     *own = trackOwnFeatures(from_image, to_image, state.own_points, state.own_ids, state.box, H_dir, object_step,
                             o.region_feature_px, pyramids.state_image, pyramids.image);
-    for (const OwnFeature& f : *own) {
-      const size_t before = vecs.size();
+    for (const OwnFeature& f : *own)
       addVec(f.id, Eigen::Vector2d(f.from.x, f.from.y), Eigen::Vector2d(f.to.x, f.to.y), 1.0);
-      if (vecs.size() != before && camera_valid) {
-        const double r = (vecs.back().dst - vecs.back().src_cam).norm() / kOwnBackgroundResidual;
-        vecs.back().own_bg = 1 / (1 + r * r);
-      }
-    }
   }
   const int in_box = static_cast<int>(std::count_if(vecs.begin(), vecs.end(), [](const Vec& v) { return v.in_box; }));
   const double frac_inside = fractionInside(state.box, image_size_);
@@ -461,7 +455,10 @@ RegionState RegionTracker::stepMotion(const RegionState& state, const MotionData
   // A scale seen only between the background's features and the moving
   // ones is two motions mixed (region_fit.h): the region keeps to one of
   // them by a translation fit, made afresh from the priors.
-  if (scaleOnlyBetweenClasses(vecs, model, inlierThreshold(model), kMinClassInliers)) {
+  // (Without a camera model "with the camera" means only "still": the
+  // region's own corners then carry no class.)
+  if (scaleOnlyBetweenClasses(vecs, model, inlierThreshold(model), kMinClassInliers,
+                              camera_valid ? kOwnBackgroundResidual : 0.0)) {
     for (Vec& v : vecs) v.weight = v.prior;
     irls(2);
   }

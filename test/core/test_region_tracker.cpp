@@ -481,6 +481,37 @@ TEST(RegionTracker, CoastingCardKeepsItsOwnSizeWhileTheBackgroundGrows) {
   }
 }
 
+// A card that grew 2% a frame for the first 12 frames (coming closer), then
+// stopped, as the camera's view of it was covered by a featureless sheet for
+// 30 frames. Coasting, the region's size goes on at its last scale rate, but
+// that rate fades: what was measured before the features went is no
+// measure of the next second.
+TEST(RegionTracker, CoastingCardsScaleRateFades) {
+  World w = makeWorld();
+  Object card, cover;
+  card.points = randomPoints(60, 120, 90, 5, true);
+  card.half_size = {60, 45};
+  card.centre = [](int) { return Eigen::Vector2d(320, 240); };
+  card.scale = [](int k) { return 0.8 * std::pow(1.02, std::min(k, 12)); };
+  cover.textured = false;
+  cover.half_size = {100, 80};
+  cover.centre = [](int k) { return k >= 12 && k < 42 ? Eigen::Vector2d(320, 240) : Eigen::Vector2d(-5000, -5000); };
+  cover.scale = [](int) { return 1.0; };
+  w.objects = {card, cover};
+  const auto md = w.motionData(42);
+  const Track tr = trackForward(md, w.box(0, 0), 0);
+  // Carried by its features while it grew: within 3% of its width then.
+  EXPECT_NEAR(tr.states[11].box.width / w.box(0, 11).width, 1.0, 0.03);
+  for (int k = 12; k < 42; ++k) ASSERT_EQ(tr.states[k].status, RegionStatus::kTracked) << "frame " << k;
+  // After 30 frames unseen. Kept up, a rate of about 2% a frame would make
+  // it 1.02^30 = 1.8 times as wide; fading by 0.9 a frame, at most
+  // 0.02 / 0.1 = 20% more (measured: x1.108; x1.729 without the fade).
+  const double ratio = tr.states[41].box.width / w.box(0, 41).width;
+  std::printf("coasting card after 30 frames: width x%.3f the card's\n", ratio);
+  EXPECT_LT(ratio, 1.25);
+  EXPECT_GT(ratio, 0.97);
+}
+
 TEST(RegionTracker, OutOfViewAndBack) {
   World w;
   for (auto& p : randomPoints(4000, 2400, 1000, 12, false)) w.background.push_back(p - Eigen::Vector2d(800, 250));

@@ -90,7 +90,7 @@ struct RegionState {
   double confidence = 0;           // 0 .. 1
   Eigen::Vector2d velocity = Eigen::Vector2d::Zero();  // px/frame of the box centre, in the tracking direction
   Eigen::Vector2d object_velocity = Eigen::Vector2d::Zero();  // px/frame relative to the background (camera) motion
-  double scale_rate = 0;  // log size change per frame, smoothed as velocity is (what a coasting region keeps)
+  double scale_rate = 0;  // log size change per frame, smoothed as velocity is (a coasting region goes on at it, fading: kUnseenMotionFade in region_tracker.cpp)
   // Its box was seen to be a rectangle's when it was given (its sides on the
   // frame's edges, region_shape.h), turned by `placed_angle` then: its extent
   // is the turned rectangle's, not the hedged one.

@@ -10,7 +10,7 @@
 // IoU, precision at 20 px, and frames/s (tracking only, decoding excluded).
 // Single-threaded (cv::setNumThreads(1)).
 //
-//   make -C _build benchmarks && taskset -c 0 _build/benchmark/benchmark_region_real [--ours-only] [--no-appearance] [--set option=value] [--trace] [--trace-peers] [--peers-gray] [--starts N] [--mid] [sequence...]
+//   make -C _build benchmarks && taskset -c 0 _build/benchmark/benchmark_region_real [--ours-only] [--no-appearance] [--set option=value] [--trace] [--trace-peers] [--peers-gray] [--starts N] [--per-start] [--mid] [sequence...]
 #include "instant_motion_tracking/core/tracking_session.h"
 #include "instant_motion_tracking/io/config.h"
 #include "set_option.h"
@@ -39,12 +39,13 @@ using Clock = std::chrono::steady_clock;
 struct Row {
   double auc = 0, iou = 0, p20 = 0, fps = 0;
   double auc_min = 0, auc_max = 0;  // over the runs from nudged starts (--starts)
+  std::vector<double> aucs;          // each run's, in the order of the starts (--per-start)
 };
 
 // The row of one run: its scores, and `frames` tracked in `seconds`.
 Row scoreOf(const imt::test::BoxScore& score, int frames, double seconds) {
   const double auc = score.successAuc();
-  return {auc, score.meanIou(), score.precision20(), seconds > 0 ? frames / seconds : 0, auc, auc};
+  return {auc, score.meanIou(), score.precision20(), seconds > 0 ? frames / seconds : 0, auc, auc, {auc}};
 }
 
 // Runs one tracker over the sequence: `step(frame number, &box)` tracks frame
@@ -67,12 +68,15 @@ Row run(const imt::test::BoxSequence& seq, const std::vector<cv::Mat>& frames,
 // N - 1 copies of it nudged by a pixel or two (what a careful user's drawing
 // varies by). Tracking on real video is chaotic: one run's score moves by a
 // few hundredths on any small change, so a change is judged by the mean and
-// the spread of these runs. The nudge of run k (0: none).
+// the spread of these runs. The nudge of run k (0: none; x, y, width,
+// height in px), each a different box: at most kMaxStarts runs.
+constexpr int kNudge[][4] = {{0, 0, 0, 0},  {1, 0, 0, 0},    {0, 1, 0, 0},   {-1, 0, 0, 0},
+                             {0, -1, 0, 0}, {0, 0, 2, 0},    {0, 0, 0, 2},   {1, 1, -2, -2},
+                             {-2, 1, 1, 0}, {1, -2, 0, 1},   {2, 2, 0, 0},   {-2, -2, 2, 2},
+                             {0, 0, -2, 0}, {0, 0, 0, -2},   {2, -1, -1, 1}, {-1, 2, 1, -1}};
+constexpr int kMaxStarts = sizeof(kNudge) / sizeof(kNudge[0]);
 cv::Rect2d nudged(const cv::Rect2d& b, int k) {
-  static const int kNudge[][4] = {{0, 0, 0, 0},  {1, 0, 0, 0},   {0, 1, 0, 0},  {-1, 0, 0, 0}, {0, -1, 0, 0},
-                                  {0, 0, 2, 0},  {0, 0, 0, 2},   {1, 1, -2, -2}, {-2, 1, 1, 0}, {1, -2, 0, 1},
-                                  {2, 2, 0, 0},  {-2, -2, 2, 2}};
-  const int* n = kNudge[k % (sizeof(kNudge) / sizeof(kNudge[0]))];
+  const int* n = kNudge[k];
   return cv::Rect2d(b.x + n[0], b.y + n[1], b.width + n[2], b.height + n[3]);
 }
 
@@ -84,6 +88,7 @@ void addRun(const Row& r, int k, int runs, Row* m) {
   m->fps += r.fps / runs;
   m->auc_min = k == 0 ? r.auc : std::min(m->auc_min, r.auc);
   m->auc_max = k == 0 ? r.auc : std::max(m->auc_max, r.auc);
+  m->aucs.push_back(r.auc);
 }
 
 // Mean of `runs` runs of `one(start box)`, with the spread of their AUC.
@@ -243,14 +248,15 @@ Halves runPeerMid(const imt::test::BoxSequence& seq, const std::vector<cv::Mat>&
 
 constexpr char kUsage[] =
     "usage: benchmark_region_real [--ours-only] [--no-appearance] [--set option=value] [--trace] [--trace-peers]\n"
-    "                             [--peers-gray] [--starts N] [--mid] [sequence...]\n"
+    "                             [--peers-gray] [--starts N] [--per-start] [--mid] [sequence...]\n"
     "  --ours-only       leave out OpenCV's KCF and CSRT\n"
     "  --no-appearance   our tracker on motion data alone (no look, no own corners)\n"
     "  --set name=value  a region_tracking option (as in config YAML)\n"
     "  --trace           our tracker's state on every frame (implies --ours-only)\n"
     "  --trace-peers     the peers' boxes on every frame\n"
     "  --peers-gray      the peers get the gray frames this package gets, not the colour ones\n"
-    "  --starts N        mean of N runs: from the first box and N - 1 nudged copies\n"
+    "  --starts N        mean of N runs: from the first box and N - 1 nudged copies (N <= 16)\n"
+    "  --per-start       also each run's success AUC, after the table (with --starts)\n"
     "  --mid             the box given at the middle frame; the halves before it (tracked\n"
     "                    backwards; ours offline, as track_bag) and after it scored apart\n"
     "  sequence          only these (names as in the table; default every one found)\n"
@@ -258,7 +264,7 @@ constexpr char kUsage[] =
 
 int main(int argc, char** argv) {
   cv::setNumThreads(1);
-  bool ours_only = false, mid_mode = false, peers_gray = false;
+  bool ours_only = false, mid_mode = false, peers_gray = false, per_start = false;
   int starts = 1;
   std::set<std::string> only;
   for (int i = 1; i < argc; ++i) {
@@ -275,10 +281,11 @@ int main(int argc, char** argv) {
     else if (a == "--trace-peers") g_trace_peers = true;
     else if (a == "--peers-gray") peers_gray = true;
     else if (a == "--mid") mid_mode = true;
+    else if (a == "--per-start") per_start = true;
     else if (a == "--starts" && i + 1 < argc) {
       starts = std::atoi(argv[++i]);
-      if (starts < 1) {
-        std::fprintf(stderr, "--starts: a count of runs, at least 1\n");
+      if (starts < 1 || starts > kMaxStarts) {
+        std::fprintf(stderr, "--starts: a count of runs, 1 to %d (one per nudge of the box)\n", kMaxStarts);
         return 2;
       }
     }
@@ -316,6 +323,7 @@ int main(int argc, char** argv) {
               starts > 1 ? " AUC min..max |" : "");
   std::printf("|---|---|---|---|%s---|---|---|\n", starts > 1 ? "---|" : "");
   std::map<std::string, std::vector<Row>> rows;  // tracker -> one row per sequence
+  std::string per_start_lines;                   // --per-start, printed after the table
   [[maybe_unused]] const char* peer_frames = peers_gray ? " (gray)" : "";
   for (const imt::test::BoxSequence& seq : sequences) {
     if (!only.empty() && !only.count(seq.name())) continue;
@@ -378,6 +386,15 @@ int main(int argc, char** argv) {
       std::printf(" %.3f | %.3f | %.1f |\n", r.iou, r.p20, r.fps);
       std::fflush(stdout);
       rows[name].push_back(r);
+      if (per_start) {
+        per_start_lines += "- " + seq.name() + ", " + name + ":";
+        char a[16];
+        for (const double auc : r.aucs) {
+          std::snprintf(a, sizeof(a), " %.3f", auc);
+          per_start_lines += a;
+        }
+        per_start_lines += "\n";
+      }
     }
   }
   for (const auto& [name, v] : rows) {
@@ -395,6 +412,7 @@ int main(int argc, char** argv) {
     if (starts > 1) std::printf(" %.3f..%.3f |", m.auc_min, m.auc_max);
     std::printf(" %.3f | %.3f | %.1f |\n", m.iou, m.p20, m.fps);
   }
+  if (per_start) std::printf("\nSuccess AUC of each run (the first from the box given):\n%s", per_start_lines.c_str());
 #ifndef IMT_HAVE_OPENCV_TRACKING
   std::printf("(OpenCV tracking module not found: KCF/CSRT rows skipped; install libopencv-contrib-dev)\n");
 #endif

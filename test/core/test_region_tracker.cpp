@@ -481,11 +481,11 @@ TEST(RegionTracker, CoastingCardKeepsItsOwnSizeWhileTheBackgroundGrows) {
   }
 }
 
-// A card that grew 2% a frame for the first 12 frames (coming closer), then
-// stopped, as the camera's view of it was covered by a featureless sheet for
-// 30 frames. Coasting, the region's size goes on at its last scale rate, but
-// that rate fades: what was measured before the features went is no
-// measure of the next second.
+// A card that grew 2% a frame for the first 12 frames (coming closer) and
+// then stopped, just as a featureless sheet covered it for 30 frames.
+// Coasting, the region's size goes on at its last scale rate, but that rate
+// fades: what was measured before the features went is no measure of the
+// next second.
 TEST(RegionTracker, CoastingCardsScaleRateFades) {
   World w = makeWorld();
   Object card, cover;

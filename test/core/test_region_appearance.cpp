@@ -31,10 +31,12 @@ cv::Mat texture(uint64_t seed = 7) {
 }
 
 // `image` moved by (dx, dy) px (integers: exact pixels, no resampling).
-cv::Mat shifted(const cv::Mat& image, int dx, int dy) {
+// `image` moved by (dx, dy) px, sub-pixel shifts read bilinearly (a whole
+// pixel's shift is exact).
+cv::Mat shifted(const cv::Mat& image, double dx, double dy) {
   cv::Mat out;
   const cv::Mat m = (cv::Mat_<double>(2, 3) << 1, 0, dx, 0, 1, dy);
-  cv::warpAffine(image, out, m, image.size(), cv::INTER_NEAREST, cv::BORDER_REFLECT);
+  cv::warpAffine(image, out, m, image.size(), cv::INTER_LINEAR, cv::BORDER_REFLECT);
   return out;
 }
 
@@ -573,17 +575,11 @@ TEST(RegionOwnFeatures, AWalkerAndTheGroundPanningPastAreNoZoom) {
   const cv::Rect2d box(100, 80, 100, 60);
   const cv::Rect him(100, 80, 50, 60);  // the box's left half
   const double pan = 2.5, walk = 1.3;   // px this frame: the ground, and him (1.2 px behind the pan)
-  const auto moved = [](const cv::Mat& m, double dx) {
-    cv::Mat out;
-    const cv::Mat shift = (cv::Mat_<double>(2, 3) << 1, 0, dx, 0, 1, 0);
-    cv::warpAffine(m, out, shift, m.size(), cv::INTER_LINEAR, cv::BORDER_REFLECT);
-    return out;
-  };
   cv::Mat a = ground.clone(), mask(kSize, CV_8UC1, cv::Scalar(0));
   walker(him).copyTo(a(him));
   mask(him).setTo(255);
-  cv::Mat b = moved(ground, pan);
-  moved(walker, walk).copyTo(b, moved(mask, walk) > 127);
+  cv::Mat b = shifted(ground, pan, 0);
+  shifted(walker, walk, 0).copyTo(b, shifted(mask, walk, 0) > 127);
 
   const RegionTrackerOptions o = ownFeaturesAlone();
   RegionTracker tracker(o, kSize);

@@ -7,6 +7,7 @@
 #include "../../src/core/region/region_features.h"
 #include "../../src/core/region/region_geometry.h"
 #include "../../src/core/region/template_correlation.h"
+#include "texture_image.h"
 
 #include <gtest/gtest.h>
 #include <opencv2/imgproc.hpp>
@@ -19,26 +20,8 @@ namespace {
 
 const cv::Size kSize(320, 240);
 
-// A smooth random texture (seeded: the same on every machine's RNG).
-cv::Mat texture(uint64_t seed = 7) {
-  cv::Mat noise(kSize, CV_8UC1);
-  cv::RNG rng(seed);
-  rng.fill(noise, cv::RNG::UNIFORM, 0, 256);
-  cv::Mat t;
-  cv::GaussianBlur(noise, t, cv::Size(0, 0), 1.5);
-  cv::normalize(t, t, 0, 255, cv::NORM_MINMAX);
-  return t;
-}
-
-// `image` moved by (dx, dy) px (integers: exact pixels, no resampling).
-// `image` moved by (dx, dy) px, sub-pixel shifts read bilinearly (a whole
-// pixel's shift is exact).
-cv::Mat shifted(const cv::Mat& image, double dx, double dy) {
-  cv::Mat out;
-  const cv::Mat m = (cv::Mat_<double>(2, 3) << 1, 0, dx, 0, 1, dy);
-  cv::warpAffine(image, out, m, image.size(), cv::INTER_LINEAR, cv::BORDER_REFLECT);
-  return out;
-}
+cv::Mat texture(uint64_t seed = 7) { return test::smoothTexture(kSize, seed, 1.5); }
+using test::shifted;
 
 MotionData emptyMotion(double stamp) {
   MotionData md;

@@ -37,38 +37,71 @@ std::optional<test::BoxSequence> findSequence(const char* name) {
   return std::nullopt;
 }
 
-TEST_P(RegionReal, FirstFrameBoxIsFollowed) {
-  const RealCase& c = GetParam();
-  const std::optional<test::BoxSequence> found = findSequence(c.sequence);
-  if (!found) GTEST_SKIP() << c.sequence << " not found under " << test::sharedDataDir();
-  const test::BoxSequence* seq = &*found;
+// The whole pipeline, live, with the region given at `box` on the first
+// frame: its score over the sequence.
+void trackFromFirstFrame(const test::BoxSequence& seq, const cv::Rect2d& box, test::BoxScore* score) {
   TrackingSession session(PipelineOptions(), TrackingSession::Mode::kLive);
-  test::BoxScore score;
   uint32_t id = 0;
-  cv::Size size;
-  for (int f = 1; f <= seq->frames(); ++f) {
-    const cv::Mat gray = seq->gray(f);
-    ASSERT_FALSE(gray.empty()) << c.sequence << " frame " << f;
-    size = gray.size();
-    session.analyze(gray, seq->stamp(f));
+  for (int f = 1; f <= seq.frames(); ++f) {
+    const cv::Mat gray = seq.gray(f);
+    ASSERT_FALSE(gray.empty()) << seq.name() << " frame " << f;
+    session.analyze(gray, seq.stamp(f));
     session.advance();
     const std::vector<FrameResult> results = session.takeResults();
     if (f == 1) {
       std::string err;
-      ASSERT_TRUE(session.addRegion(1, 0, seq->box(1), &id, &err)) << err;
+      ASSERT_TRUE(session.addRegion(1, 0, box, &id, &err)) << err;
       continue;
     }
     ASSERT_EQ(results.size(), 1u);
     ASSERT_EQ(results[0].regions.size(), 1u);
     const RegionState& s = results[0].regions[0];
-    if (seq->scored(f)) score.add(s.status != RegionStatus::kLost, s.extent(), seq->box(f), size);
+    if (seq.scored(f)) score->add(s.status != RegionStatus::kLost, s.extent(), seq.box(f), gray.size());
   }
+}
+
+TEST_P(RegionReal, FirstFrameBoxIsFollowed) {
+  const RealCase& c = GetParam();
+  const std::optional<test::BoxSequence> found = findSequence(c.sequence);
+  if (!found) GTEST_SKIP() << c.sequence << " not found under " << test::sharedDataDir();
+  test::BoxScore score;
+  trackFromFirstFrame(*found, found->box(1), &score);
   ASSERT_GT(score.frames(), 20);
   std::printf("%s: success AUC %.3f, mean IoU %.3f, P@20px %.3f over %d frames\n", c.sequence, score.successAuc(),
               score.meanIou(), score.precision20(), score.frames());
   EXPECT_GE(score.successAuc(), c.min_auc);
 }
 
+// Human3 (a walker whose few corners sit on his swinging limbs) is chaotic
+// from one box: a run either keeps him past the sign that hides him at
+// frames 50-62 or loses him there. Its figure is the mean over the first 8
+// of benchmark_region_real's nudged boxes (--starts 8): 0.501 since each
+// region keeps a correlation filter (region_filter.h; runs 0.204..0.607),
+// 0.110 before (OpenCV CSRT 0.439 on the colour frames, 0.148 on gray).
+// Floor 0.35: under the mean by about two runs lost.
+TEST(RegionReal, Human3FromNudgedBoxes) {
+  const std::optional<test::BoxSequence> found = findSequence("otb_human3_first199");
+  if (!found) GTEST_SKIP() << "otb_human3_first199 not found under " << test::sharedDataDir();
+  constexpr int kNudge[8][4] = {{0, 0, 0, 0}, {1, 0, 0, 0},  {0, 1, 0, 0}, {-1, 0, 0, 0},
+                                {0, -1, 0, 0}, {0, 0, 2, 0}, {0, 0, 0, 2}, {1, 1, -2, -2}};
+  const cv::Rect2d b = found->box(1);
+  double sum = 0;
+  for (const auto& n : kNudge) {
+    test::BoxScore score;
+    trackFromFirstFrame(*found, cv::Rect2d(b.x + n[0], b.y + n[1], b.width + n[2], b.height + n[3]), &score);
+    std::printf("Human3 from (%+d, %+d, %+d, %+d): success AUC %.3f\n", n[0], n[1], n[2], n[3], score.successAuc());
+    sum += score.successAuc();
+  }
+  std::printf("Human3, mean of 8 nudged boxes: %.3f\n", sum / 8);
+  EXPECT_GE(sum / 8, 0.35);
+}
+
+// Since each region keeps a correlation filter (2026-11-29, third
+// session; region_filter.h): car1 0.784 (8 nudged starts 0.747..0.811,
+// mean 0.776), boat1 0.819, Human3 0.555 (0.204..0.607, mean 0.501; 0.116
+// before), V25_2 0.949, V24_7 0.930. Human3's floor raised from 0.07 to
+// 0.15, under its runs that lose the walker at the sign (0.204): its mean
+// is held by Human3FromNudgedBoxes.
 // car1 0.757 (8 nudged starts 0.748..0.789, mean 0.768), Human3 0.116,
 // since a coasting region's scale rate fades (2026-11-29, second session).
 // Before: car1 0.782 (8 nudged starts 0.624..0.789, mean 0.761; 0.766 and
@@ -109,7 +142,7 @@ TEST_P(RegionReal, FirstFrameBoxIsFollowed) {
 // is 0.70, further under it than the others'.
 INSTANTIATE_TEST_SUITE_P(Sequences, RegionReal,
                          ::testing::Values(RealCase{"vot2015_car1", 0.70}, RealCase{"uav123_10fps_boat1", 0.74},
-                                           RealCase{"otb_human3_first199", 0.07},
+                                           RealCase{"otb_human3_first199", 0.15},
                                            RealCase{"pot210_V25_2", 0.90}, RealCase{"pot210_V24_7", 0.87}),
                          [](const ::testing::TestParamInfo<RealCase>& info) {
                            std::string n = info.param.sequence;
@@ -164,6 +197,12 @@ TEST_P(RegionRealMid, MiddleFrameBoxIsFollowedBothWays) {
   EXPECT_GE(forward.successAuc(), c.min_auc_forward);
 }
 
+// Since each region keeps a correlation filter (2026-11-29, third
+// session): Human3 0.703 / 0.561 (8 nudged boxes 0.636..0.720 /
+// 0.410..0.765, means 0.687 / 0.601; 0.111 / 0.444 before), its floors
+// raised from 0.07 / 0.10 to 0.55 / 0.35; car1 0.760 / 0.875 (0.760..0.809
+// / 0.856..0.888), boat1 0.869 / 0.862 (0.863..0.872 / 0.834..0.873),
+// V25_2 0.897 / 0.893, V24_7 0.925 / 0.875 (0.912..0.932 / 0.847..0.881).
 // Human3 forward 0.666 (8 nudged boxes 0.131..0.666, mean 0.440; 0.273 and
 // 0.237 before) since a scale that a shift of each class of features
 // explains as well is refused, the region's own corners classed too
@@ -182,7 +221,7 @@ TEST_P(RegionRealMid, MiddleFrameBoxIsFollowedBothWays) {
 INSTANTIATE_TEST_SUITE_P(Sequences, RegionRealMid,
                          ::testing::Values(MidCase{"vot2015_car1", 0.74, 0.80},
                                            MidCase{"uav123_10fps_boat1", 0.84, 0.83},
-                                           MidCase{"otb_human3_first199", 0.07, 0.10},
+                                           MidCase{"otb_human3_first199", 0.55, 0.35},
                                            MidCase{"pot210_V25_2", 0.85, 0.85},
                                            MidCase{"pot210_V24_7", 0.88, 0.83}),
                          [](const ::testing::TestParamInfo<MidCase>& info) {

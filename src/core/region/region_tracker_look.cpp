@@ -58,6 +58,13 @@ int RegionTracker::lookInterval(const RegionTrackerOptions& options, size_t regi
   return static_cast<int>((regions + options.appearance_budget - 1) / options.appearance_budget);
 }
 
+int RegionTracker::filterInterval(const RegionTrackerOptions& options, size_t regions) {
+  const size_t per_frame = options.appearance_budget <= 0
+                               ? regions
+                               : std::min(regions, static_cast<size_t>(options.appearance_budget));
+  return std::max(1, static_cast<int>((per_frame + kFilterBudget - 1) / kFilterBudget));
+}
+
 double RegionTracker::lookGain(const RegionState& state, bool motion_weak, double motion_confidence) const {
   if (motion_weak) return 1.0;
   return 1 - std::pow(1 - options_.appearance_gain * (1 - motion_confidence), state.look_age + 1);
@@ -114,9 +121,55 @@ void RegionTracker::initFromImage(RegionState* state, const cv::Mat& image, cons
   if (options_.appearance &&
       RegionAppearance::create(image, state->box, options_.appearance_size, &state->appearance, state->angle))
     state->first_appearance = state->appearance;
+  if (options_.appearance && options_.appearance_filter) RegionFilter::create(image, state->box, &state->filter);
   // Its turns among the others' (appearance_budget) are staggered by id on
   // its first step, among the regions sharing that frame.
   state->look_wait = -1;
+  state->filter_wait = -1;
+}
+
+cv::Point2d RegionTracker::findByFilter(const RegionState& state, RegionState* next, bool motion_weak,
+                                       const cv::Mat& image) const {
+  if (!state.filter.valid() || next->status == RegionStatus::kLost || next->status == RegionStatus::kOutOfView)
+    return {};
+  // Where many features carry the region, they place it more precisely
+  // than the filter's 4 px cells (the window's, scaled), and the filter is
+  // not asked: it costs about ten times the template's check.
+  const double motion_confidence =
+      motion_weak ? 0.0 : std::min(1.0, next->inliers.size() / options_.confidence_inliers);
+  if (motion_confidence >= kFilterFirmlyCarried) {
+    next->filter_sure = false;
+    return {};
+  }
+  next->filter_sure = false;
+  const FilterMatch m = state.filter.locate(image, next->box);
+  if (!m.found) return {};
+  next->filter_psr = m.psr;
+  // Sure: a clear peak, and not much weaker than its usual one (an occluder
+  // sliding over the region still gives a clear peak somewhere, a weak one).
+  next->filter_sure = m.psr >= kFilterSurePsr && m.peak >= kFilterSurePeak * state.filter_peak;
+  if (!next->filter_sure) return {};
+  next->filter_peak = state.filter_peak > 0 ? (1 - kFilterPeakRate) * state.filter_peak + kFilterPeakRate * m.peak
+                                            : m.peak;
+  if (motion_weak) {
+    // Seen where it is, as when the look moves it.
+    next->coast_frames = 0;
+    if (next->status == RegionStatus::kFeatureless) next->status = RegionStatus::kTracked;
+  }
+  return kFilterGain * lookGain(state, motion_weak, motion_confidence) * m.shift;
+}
+
+void RegionTracker::learnFilter(const RegionState& state, RegionState* next, const cv::Mat& image) const {
+  // Only on a clear find: a filter that learned an occluder would follow it.
+  if (!next->filter.valid() || !next->filter_sure || next->filter_psr < kFilterLearnPsr ||
+      next->status == RegionStatus::kLost || next->status == RegionStatus::kOutOfView)
+    return;
+  // Every kFilterLearnEvery frames or more (the frames between its turns
+  // counted), at the rate of kFilterLearnEvery frames: learning costs as
+  // much as finding.
+  if (next->filter_unlearned < kFilterLearnEvery) return;
+  next->filter.learn(image, next->box, 1 - std::pow(1 - kFilterRate, std::min(next->filter_unlearned, kFilterLearnEvery)));
+  next->filter_unlearned = 0;
 }
 
 void RegionTracker::checkAppearance(const RegionState& state, RegionState* next, bool motion_weak,
@@ -229,7 +282,7 @@ void RegionTracker::checkAppearance(const RegionState& state, RegionState* next,
         next->look_size = next->box.size();
       }
     }
-  } else if (score < o.appearance_lost_score) {
+  } else if (score < o.appearance_lost_score && !next->filter_sure) {
     // It looks wrong. Lost after appearance_lost_frames of that while few
     // features carry it, three times as long while many do (a turning or
     // tilting target changes its look while its features hold it).
@@ -395,6 +448,7 @@ void RegionTracker::reacquire(RegionState* next, const cv::Mat& image) const {
   std::snprintf(why, sizeof(why), "re-acquired by its appearance (correlation %.2f) after %d frames lost", m.score,
                 next->lost_frames);
   const RegionAppearance look = next->appearance, first = next->first_appearance;
+  const RegionFilter filter = next->filter;
   const double interval = next->frame_interval, placed_aspect = next->placed_aspect;
   const double placed_angle = next->placed_angle;
   const bool rectangle = next->rectangle;
@@ -405,6 +459,7 @@ void RegionTracker::reacquire(RegionState* next, const cv::Mat& image) const {
   next->rectangle = rectangle;
   next->appearance = look;
   next->first_appearance = first;
+  next->filter = filter;
   next->frame_interval = interval;
   next->found_frames = 0;
   next->appearance_score = m.score;

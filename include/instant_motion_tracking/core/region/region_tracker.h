@@ -59,6 +59,7 @@
 #pragma once
 
 #include "instant_motion_tracking/core/region/region_appearance.h"
+#include "instant_motion_tracking/core/region/region_filter.h"
 #include "instant_motion_tracking/core/region/region_tracker_options.h"
 #include "instant_motion_tracking/core/types.h"
 
@@ -108,6 +109,12 @@ struct RegionState {
   std::string reason;              // why the region is lost, or how it was re-acquired on this frame
   RegionAppearance appearance;     // its look (invalid without images, or for a flat box)
   RegionAppearance first_appearance;  // its look at placement (checks the template's updates)
+  RegionFilter filter;             // its discriminative look (appearance_filter; invalid without it)
+  double filter_psr = 0;           // its filter's peak-to-sidelobe ratio at this frame (0: not run)
+  bool filter_sure = false;        // its filter found it at this frame, clearly and about as strongly as usual
+  double filter_peak = 0;          // the filter's usual peak when sure (0: not yet)
+  int filter_unlearned = 0;        // frames since its filter last learned
+  int filter_wait = 0;             // look turns until its filter's next (kFilterBudget); -1: not yet given its turns
   double appearance_score = -1;    // NCC of the look at this frame's box (-1: not checked)
   int appearance_misses = 0;       // consecutive checks it did not look like itself
   int stretch_run = 0;             // tries in a row its look matched better stretched (> 0: wider, < 0: taller)
@@ -160,10 +167,18 @@ class RegionTracker {
   // `regions`: how many regions share the frames (the look's turns,
   // appearance_budget).
   RegionTracker(const RegionTrackerOptions& options, cv::Size image_size, size_t regions = 1)
-      : options_(options), image_size_(image_size), regions_(regions), look_interval_(lookInterval(options, regions)) {}
+      : options_(options),
+        image_size_(image_size),
+        regions_(regions),
+        look_interval_(lookInterval(options, regions)),
+        filter_interval_(filterInterval(options, regions)) {}
   // Frames between the turns of a firmly carried region's look check when
   // `regions` share the frames: ceil(regions / appearance_budget), at least 1.
   static int lookInterval(const RegionTrackerOptions& options, size_t regions);
+  // Look turns between a region's filter asks (findByFilter()): the regions
+  // checked per frame (appearance_budget) over kFilterBudget, rounded up.
+  static int filterInterval(const RegionTrackerOptions& options, size_t regions);
+  static constexpr int kFilterBudget = 2;
 
   // Advances `state` by one frame. Forward: `md` is the motion data of the
   // next frame (it describes previous -> md). Backward: `md` is the motion
@@ -212,6 +227,32 @@ class RegionTracker {
   // The appearance check after the motion step (`motion_weak`: the step had
   // no support of its own), and the search for a lost region.
   void checkAppearance(const RegionState& state, RegionState* next, bool motion_weak, const cv::Mat& image) const;
+  // The filter's correction of the region's place after the motion step,
+  // where its features carry it weakly (region_filter.h): on a sure find
+  // (filter_sure), kFilterGain times as far as the look moves it
+  // (lookGain()), applied by step() when the template's check did not move
+  // it (its clear match is to the pixel). A region found so is seen (not
+  // coasting), and is not lost by its template's look (a walker's template
+  // stops matching him within a few steps). After the look's check,
+  // learnFilter() teaches it the region's place.
+  cv::Point2d findByFilter(const RegionState& state, RegionState* next, bool motion_weak,
+                           const cv::Mat& image) const;
+  void learnFilter(const RegionState& state, RegionState* next, const cv::Mat& image) const;
+  // A sure find: a peak-to-sidelobe ratio of kFilterSurePsr or more, and a
+  // peak of at least kFilterSurePeak times its usual (a running mean over
+  // sure finds, kFilterPeakRate a find). It learns only from finds with a
+  // ratio of kFilterLearnPsr, at kFilterRate a frame (CSR-DCF's). It moves
+  // regions whose motion confidence is under kFilterFirmlyCarried.
+  // Measured on the real sequences and the presets: docs/benchmarks.md,
+  // "A discriminative look".
+  static constexpr double kFilterSurePsr = 6.0;
+  static constexpr double kFilterSurePeak = 0.4;
+  static constexpr double kFilterPeakRate = 0.1;
+  static constexpr double kFilterLearnPsr = 8.0;
+  static constexpr double kFilterRate = 0.02;
+  static constexpr int kFilterLearnEvery = 2;
+  static constexpr double kFilterGain = 0.5;
+  static constexpr double kFilterFirmlyCarried = 0.5;
   void reacquire(RegionState* next, const cv::Mat& image) const;
   // The look's correction of the region's turn, around its best match `m`.
   void turnByLook(const RegionState& state, RegionState* next, const AppearanceMatch& m, bool motion_weak,
@@ -254,6 +295,7 @@ class RegionTracker {
   cv::Size image_size_;
   size_t regions_ = 1;     // the regions sharing the frames
   int look_interval_ = 1;  // lookInterval() for them
+  int filter_interval_ = 1;  // filterInterval() for them
 };
 
 }  // namespace imt

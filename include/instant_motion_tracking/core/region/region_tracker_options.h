@@ -37,6 +37,7 @@ struct RegionTrackerOptions {
   int region_features = 6;
   int region_feature_px = 96;
   bool appearance = true;
+  bool appearance_filter = true;
   int appearance_size = 40;
   double appearance_margin = 0.35;
   double appearance_accept = 0.6;
@@ -92,6 +93,9 @@ struct RegionTrackerOptions {
       "px; its own features are tracked at full resolution in boxes up to this size, larger boxes downscaled to it");
     v("appearance", appearance,
       "check each region's look (a template) against the frames: corrects drift, re-acquires lost regions");
+    v("appearance_filter", appearance_filter,
+      "with appearance: each region also keeps a correlation filter that tells it from its surround "
+      "(region_filter.h), which places it as far as the look moves it");
     v("appearance_size", appearance_size, "px; the template's longer side (smaller boxes keep their own pixels)");
     v("appearance_margin", appearance_margin,
       "search reach around the motion's box, fraction of its sides (doubled when the motion step had no support)");

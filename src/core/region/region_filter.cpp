@@ -1,5 +1,8 @@
 #include "instant_motion_tracking/core/region/region_filter.h"
 
+#include "region_geometry.h"
+
+#include <opencv2/core/hal/hal.hpp>
 #include <opencv2/imgproc.hpp>
 
 #include <algorithm>
@@ -36,8 +39,7 @@ bool RegionFilter::create(const cv::Mat& gray, const cv::Rect2d& box, RegionFilt
   const double w = box.width, h = box.height;
   if (!(w > 0 && h > 0) || !std::isfinite(box.x) || !std::isfinite(box.y) || !std::isfinite(w) || !std::isfinite(h))
     return false;
-  const cv::Rect2d inside = box & cv::Rect2d(0, 0, gray.cols, gray.rows);
-  if (inside.area() < 0.5 * box.area()) return false;
+  if (region_geometry::fractionInside(box, gray.size()) < 0.5) return false;
   const double size = std::sqrt(w * h);
   const double side = (w + h) / 2 + kPadding * size;
   const int cells = static_cast<int>(std::min<double>(side, kWindowPx) / kCellPx);
@@ -98,29 +100,32 @@ std::vector<cv::Mat> RegionFilter::features(const cv::Mat& window) const {
   // Each pixel's gradient (central differences, one-sided at the window's
   // edges) votes for the two nearest of 9 unsigned orientations, in
   // proportion, into its cell (the cell's mean); the gray channel is the
-  // cell's mean level. In one pass over the window's bytes: whole-window
-  // float images cost more in allocation than in arithmetic here.
+  // cell's mean level. A row at a time: its angles and magnitudes by
+  // OpenCV's vectorised kernels, into buffers on the stack (whole-window
+  // float images cost more in allocation than in arithmetic here).
   const float per_bin = kOrientations / 180.0f, per_pixel = 1.0f / (kCellPx * kCellPx * 255.0f);
+  float gx[kWindowPx], gy[kWindowPx], mag[kWindowPx], deg[kWindowPx];
   float* rows[kOrientations + 1];
   for (int y = 0; y < side; ++y) {
     const uint8_t* p = window.ptr<uint8_t>(y);
     const uint8_t* up = window.ptr<uint8_t>(std::max(0, y - 1));
     const uint8_t* down = window.ptr<uint8_t>(std::min(side - 1, y + 1));
+    gx[0] = static_cast<float>(p[1]) - p[0];
+    gx[side - 1] = static_cast<float>(p[side - 1]) - p[side - 2];
+    for (int x = 1; x < side - 1; ++x) gx[x] = static_cast<float>(p[x + 1]) - p[x - 1];
+    for (int x = 0; x < side; ++x) gy[x] = static_cast<float>(down[x]) - up[x];
+    cv::hal::magnitude32f(gx, gy, mag, side);
+    cv::hal::fastAtan32f(gy, gx, deg, side, true);  // 0 .. 360
     for (int k = 0; k < kOrientations; ++k) rows[k] = f[k].ptr<float>(y / kCellPx);
     rows[kOrientations] = rows[0];  // orientation 9 is orientation 0
     float* gray = f[kOrientations].ptr<float>(y / kCellPx);
     for (int x = 0; x < side; ++x) {
-      const float gx = static_cast<float>(p[std::min(side - 1, x + 1)]) - p[std::max(0, x - 1)];
-      const float gy = static_cast<float>(down[x]) - up[x];
-      const float mag = std::sqrt(gx * gx + gy * gy) * per_pixel;
-      float deg = cv::fastAtan2(gy, gx);  // 0 .. 360
-      if (deg >= 180) deg -= 180;
-      const float b = deg * per_bin;
+      const float b = (deg[x] >= 180 ? deg[x] - 180 : deg[x]) * per_bin;
       const int b0 = std::min(static_cast<int>(b), kOrientations - 1);
-      const float w1 = b - b0;
+      const float w1 = b - b0, m = mag[x] * per_pixel;
       const int cx = x / kCellPx;
-      rows[b0][cx] += mag * (1 - w1);
-      rows[b0 + 1][cx] += mag * w1;
+      rows[b0][cx] += m * (1 - w1);
+      rows[b0 + 1][cx] += m * w1;
       gray[cx] += p[x] * per_pixel;
     }
   }
@@ -233,11 +238,17 @@ FilterMatch RegionFilter::locate(const cv::Mat& gray, const cv::Rect2d& box) con
   if (!(scale > 0) || gray.empty() || gray.type() != CV_8UC1) return out;
   const int n = cells_;
   const std::vector<cv::Mat> f = features(window(gray, box, scale));
-  cv::Mat sum = cv::Mat::zeros(n, n, CV_32FC2), padded = cv::Mat::zeros(n, n, CV_32F), prod;
+  // The spectra packed (CCS: real input, half the products). The filter's
+  // own are transformed on every find, not kept: kept, each state in a
+  // region's history (offline, all of them) would hold 10 n x n spectra,
+  // 100 kB at 50 cells, instead of its box's cells (about 8 kB).
+  cv::Mat sum = cv::Mat::zeros(n, n, CV_32F), padded = cv::Mat::zeros(n, n, CV_32F), fc, hc, prod;
   for (size_t c = 0; c < f.size(); ++c) {
     if (weights_[c] <= 0) continue;
     h_[c].copyTo(padded(rect_));
-    cv::mulSpectrums(spectrum(f[c]), spectrum(padded), prod, 0, true);
+    cv::dft(f[c], fc);
+    cv::dft(padded, hc);
+    cv::mulSpectrums(fc, hc, prod, 0, true);
     cv::scaleAdd(prod, weights_[c], sum, sum);
   }
   cv::Mat response;
@@ -247,12 +258,9 @@ FilterMatch RegionFilter::locate(const cv::Mat& gray, const cv::Rect2d& box) con
   cv::minMaxLoc(response, nullptr, &peak, nullptr, &at);
   // Sub-cell: a parabola through the peak and its neighbours (wrapped).
   const auto r = [&](int y, int x) { return response.at<float>((y + n) % n, (x + n) % n); };
-  const auto offset = [](double a, double b, double c) {
-    const double d = a - 2 * b + c;
-    return d < 0 ? std::clamp(0.5 * (a - c) / d, -0.5, 0.5) : 0.0;
-  };
-  const double dx = (at.x > n / 2 ? at.x - n : at.x) + offset(r(at.y, at.x - 1), peak, r(at.y, at.x + 1));
-  const double dy = (at.y > n / 2 ? at.y - n : at.y) + offset(r(at.y - 1, at.x), peak, r(at.y + 1, at.x));
+  using region_geometry::peakOffset;
+  const double dx = (at.x > n / 2 ? at.x - n : at.x) + peakOffset(r(at.y, at.x - 1), peak, r(at.y, at.x + 1));
+  const double dy = (at.y > n / 2 ? at.y - n : at.y) + peakOffset(r(at.y - 1, at.x), peak, r(at.y + 1, at.x));
   // Peak to sidelobe: the peak against the response beyond 2 cells of it.
   double sum_s = 0, sum_s2 = 0;
   int count = 0;

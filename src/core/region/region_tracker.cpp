@@ -171,7 +171,6 @@ RegionState RegionTracker::step(const RegionState& state, const MotionData& md, 
   RegionState next =
       stepMotion(state, md, dir, prev_stamp, with_own ? state_image : cv::Mat(), image, pyramids, &own);
   if (next.found_frames >= 0 && ++next.found_frames > kFoundSizeFrames) next.found_frames = -1;
-  next.filter_psr = 0;
   next.filter_unlearned = state.filter_unlearned + 1;
   const bool use_look = options_.appearance && state.appearance.valid() && usable(image);
   if (use_look && state.status == RegionStatus::kLost) {
@@ -191,25 +190,7 @@ RegionState RegionTracker::step(const RegionState& state, const MotionData& md, 
     const bool turn = wait <= 0 || wait >= look_interval_;
     next.look_wait = turn ? look_interval_ - 1 : wait - 1;
     if (turn) {
-      // The filter costs about ten times the template's check: with more
-      // regions than kFilterBudget, each asks its filter on every
-      // filter_interval_-th turn only (staggered by id). Its verdict
-      // (filter_sure) counts on the turn it was asked on only.
-      next.filter_sure = false;
-      const int fwait = state.filter_wait < 0 ? static_cast<int>(state.id % filter_interval_) : state.filter_wait;
-      const bool filter_turn = options_.appearance_filter && (fwait <= 0 || fwait >= filter_interval_);
-      next.filter_wait = filter_turn ? filter_interval_ - 1 : fwait - 1;
-      const cv::Point2d by_filter = filter_turn ? findByFilter(state, &next, weak, image) : cv::Point2d();
-      const cv::Point2d motion_centre = (next.box.tl() + next.box.br()) / 2;
-      checkAppearance(state, &next, weak, image);
-      // The template's clear match is to the pixel, the filter's to its
-      // cells: the filter moves a region the template did not.
-      if (motion_centre == (next.box.tl() + next.box.br()) / 2) {
-        next.box.x += by_filter.x;
-        next.box.y += by_filter.y;
-      }
-      if (filter_turn) learnFilter(state, &next, image);
-      next.look_age = 0;
+      lookTurn(state, &next, weak, image);
     } else {
       // Not its turn: the last check's score stands, for a region its
       // features carry (one in doubt may have moved off what was checked).

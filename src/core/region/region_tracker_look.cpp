@@ -128,8 +128,32 @@ void RegionTracker::initFromImage(RegionState* state, const cv::Mat& image, cons
   state->filter_wait = -1;
 }
 
+void RegionTracker::lookTurn(const RegionState& state, RegionState* next, bool motion_weak,
+                             const cv::Mat& image) const {
+  // The filter costs about ten times the template's check: with more
+  // regions than kFilterBudget, each asks its filter on every
+  // filter_interval_-th turn only (staggered by id). Its verdict
+  // (filter_sure) counts on the turn it was asked on only.
+  next->filter_sure = false;
+  const int wait = state.filter_wait < 0 ? static_cast<int>(state.id % filter_interval_) : state.filter_wait;
+  const bool filter_turn = options_.appearance_filter && (wait <= 0 || wait >= filter_interval_);
+  next->filter_wait = filter_turn ? filter_interval_ - 1 : wait - 1;
+  double psr = 0;
+  const cv::Point2d by_filter = filter_turn ? findByFilter(state, next, motion_weak, image, &psr) : cv::Point2d();
+  const cv::Point2d motion_centre = (next->box.tl() + next->box.br()) / 2;
+  checkAppearance(state, next, motion_weak, image);
+  // The template's clear match is to the pixel, the filter's to its cells:
+  // the filter moves a region the template did not.
+  if (motion_centre == (next->box.tl() + next->box.br()) / 2) {
+    next->box.x += by_filter.x;
+    next->box.y += by_filter.y;
+  }
+  if (filter_turn) learnFilter(next, image, psr);
+  next->look_age = 0;
+}
+
 cv::Point2d RegionTracker::findByFilter(const RegionState& state, RegionState* next, bool motion_weak,
-                                       const cv::Mat& image) const {
+                                       const cv::Mat& image, double* psr) const {
   if (!state.filter.valid() || next->status == RegionStatus::kLost || next->status == RegionStatus::kOutOfView)
     return {};
   // Where many features carry the region, they place it more precisely
@@ -137,14 +161,10 @@ cv::Point2d RegionTracker::findByFilter(const RegionState& state, RegionState* n
   // not asked: it costs about ten times the template's check.
   const double motion_confidence =
       motion_weak ? 0.0 : std::min(1.0, next->inliers.size() / options_.confidence_inliers);
-  if (motion_confidence >= kFilterFirmlyCarried) {
-    next->filter_sure = false;
-    return {};
-  }
-  next->filter_sure = false;
+  if (motion_confidence >= kFilterFirmlyCarried) return {};
   const FilterMatch m = state.filter.locate(image, next->box);
   if (!m.found) return {};
-  next->filter_psr = m.psr;
+  *psr = m.psr;
   // Sure: a clear peak, and not much weaker than its usual one (an occluder
   // sliding over the region still gives a clear peak somewhere, a weak one).
   next->filter_sure = m.psr >= kFilterSurePsr && m.peak >= kFilterSurePeak * state.filter_peak;
@@ -159,9 +179,9 @@ cv::Point2d RegionTracker::findByFilter(const RegionState& state, RegionState* n
   return kFilterGain * lookGain(state, motion_weak, motion_confidence) * m.shift;
 }
 
-void RegionTracker::learnFilter(const RegionState& state, RegionState* next, const cv::Mat& image) const {
+void RegionTracker::learnFilter(RegionState* next, const cv::Mat& image, double psr) const {
   // Only on a clear find: a filter that learned an occluder would follow it.
-  if (!next->filter.valid() || !next->filter_sure || next->filter_psr < kFilterLearnPsr ||
+  if (!next->filter.valid() || !next->filter_sure || psr < kFilterLearnPsr ||
       next->status == RegionStatus::kLost || next->status == RegionStatus::kOutOfView)
     return;
   // Every kFilterLearnEvery frames or more (the frames between its turns

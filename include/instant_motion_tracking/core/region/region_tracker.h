@@ -110,7 +110,6 @@ struct RegionState {
   RegionAppearance appearance;     // its look (invalid without images, or for a flat box)
   RegionAppearance first_appearance;  // its look at placement (checks the template's updates)
   RegionFilter filter;             // its discriminative look (appearance_filter; invalid without it)
-  double filter_psr = 0;           // its filter's peak-to-sidelobe ratio at this frame (0: not run)
   bool filter_sure = false;        // its filter found it at this frame, clearly and about as strongly as usual
   double filter_peak = 0;          // the filter's usual peak when sure (0: not yet)
   int filter_unlearned = 0;        // frames since its filter last learned
@@ -227,6 +226,10 @@ class RegionTracker {
   // The appearance check after the motion step (`motion_weak`: the step had
   // no support of its own), and the search for a lost region.
   void checkAppearance(const RegionState& state, RegionState* next, bool motion_weak, const cv::Mat& image) const;
+  // A region's look turn: its filter (on the filter's turn), then its
+  // template's check, then the filter's move and learning; `next`'s look_age
+  // restarts.
+  void lookTurn(const RegionState& state, RegionState* next, bool motion_weak, const cv::Mat& image) const;
   // The filter's correction of the region's place after the motion step,
   // where its features carry it weakly (region_filter.h): on a sure find
   // (filter_sure), kFilterGain times as far as the look moves it
@@ -235,9 +238,10 @@ class RegionTracker {
   // coasting), and is not lost by its template's look (a walker's template
   // stops matching him within a few steps). After the look's check,
   // learnFilter() teaches it the region's place.
-  cv::Point2d findByFilter(const RegionState& state, RegionState* next, bool motion_weak,
-                           const cv::Mat& image) const;
-  void learnFilter(const RegionState& state, RegionState* next, const cv::Mat& image) const;
+  // (`psr`: the find's peak-to-sidelobe ratio, 0 when not asked.)
+  cv::Point2d findByFilter(const RegionState& state, RegionState* next, bool motion_weak, const cv::Mat& image,
+                           double* psr) const;
+  void learnFilter(RegionState* next, const cv::Mat& image, double psr) const;
   // A sure find: a peak-to-sidelobe ratio of kFilterSurePsr or more, and a
   // peak of at least kFilterSurePeak times its usual (a running mean over
   // sure finds, kFilterPeakRate a find). It learns only from finds with a

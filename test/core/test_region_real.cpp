@@ -75,10 +75,13 @@ TEST_P(RegionReal, FirstFrameBoxIsFollowed) {
 // Human3 (a walker whose few corners sit on his swinging limbs) is chaotic
 // from one box: a run either keeps him past the sign that hides him at
 // frames 50-62 or loses him there. Its figure is the mean over the first 8
-// of benchmark_region_real's nudged boxes (--starts 8): 0.501 since each
-// region keeps a correlation filter (region_filter.h; runs 0.204..0.607),
-// 0.110 before (OpenCV CSRT 0.439 on the colour frames, 0.148 on gray).
-// Floor 0.35: under the mean by about two runs lost.
+// of benchmark_region_real's nudged boxes (--starts 8): 0.590 since the
+// filter checks the features' scale (2026-11-29, fourth session; runs
+// 0.519..0.651, none lost at the sign), 0.501 since each region keeps a
+// correlation filter (region_filter.h; runs 0.204..0.607), 0.110 before
+// (OpenCV CSRT 0.439 on the colour frames, 0.148 on gray).
+// Floor 0.55 (0.35 before): under the mean by a little more than one run
+// lost at the sign.
 TEST(RegionReal, Human3FromNudgedBoxes) {
   const std::optional<test::BoxSequence> found = findSequence("otb_human3_first199");
   if (!found) GTEST_SKIP() << "otb_human3_first199 not found under " << test::sharedDataDir();
@@ -93,9 +96,13 @@ TEST(RegionReal, Human3FromNudgedBoxes) {
     sum += score.successAuc();
   }
   std::printf("Human3, mean of 8 nudged boxes: %.3f\n", sum / 8);
-  EXPECT_GE(sum / 8, 0.35);
+  EXPECT_GE(sum / 8, 0.55);
 }
 
+// Since the filter checks the features' scale (2026-11-29, fourth
+// session): car1 0.776 (8 nudged starts 0.724..0.792, mean 0.763), boat1
+// 0.819, Human3 0.562 (0.519..0.651, mean 0.590), V25_2 0.949, V24_7 0.930.
+// Human3's floor raised from 0.15 to 0.50, under its lowest run.
 // Since each region keeps a correlation filter (2026-11-29, third
 // session; region_filter.h): car1 0.784 (8 nudged starts 0.747..0.811,
 // mean 0.776), boat1 0.819, Human3 0.555 (0.204..0.607, mean 0.501; 0.116
@@ -142,7 +149,7 @@ TEST(RegionReal, Human3FromNudgedBoxes) {
 // is 0.70, further under it than the others'.
 INSTANTIATE_TEST_SUITE_P(Sequences, RegionReal,
                          ::testing::Values(RealCase{"vot2015_car1", 0.70}, RealCase{"uav123_10fps_boat1", 0.74},
-                                           RealCase{"otb_human3_first199", 0.15},
+                                           RealCase{"otb_human3_first199", 0.50},
                                            RealCase{"pot210_V25_2", 0.90}, RealCase{"pot210_V24_7", 0.87}),
                          [](const ::testing::TestParamInfo<RealCase>& info) {
                            std::string n = info.param.sequence;
@@ -197,6 +204,11 @@ TEST_P(RegionRealMid, MiddleFrameBoxIsFollowedBothWays) {
   EXPECT_GE(forward.successAuc(), c.min_auc_forward);
 }
 
+// Since the filter checks the features' scale (2026-11-29, fourth
+// session): Human3 0.703 / 0.744 (8 nudged boxes 0.642..0.720 /
+// 0.665..0.772, means 0.689 / 0.721), its floors raised from 0.55 / 0.35 to
+// 0.60 / 0.62; car1 0.805 / 0.867 (0.798..0.859 / 0.858..0.876), the rest
+// within 0.002 of before.
 // Since each region keeps a correlation filter (2026-11-29, third
 // session): Human3 0.703 / 0.561 (8 nudged boxes 0.636..0.720 /
 // 0.410..0.765, means 0.687 / 0.601; 0.111 / 0.444 before), its floors
@@ -221,7 +233,7 @@ TEST_P(RegionRealMid, MiddleFrameBoxIsFollowedBothWays) {
 INSTANTIATE_TEST_SUITE_P(Sequences, RegionRealMid,
                          ::testing::Values(MidCase{"vot2015_car1", 0.74, 0.80},
                                            MidCase{"uav123_10fps_boat1", 0.84, 0.83},
-                                           MidCase{"otb_human3_first199", 0.55, 0.35},
+                                           MidCase{"otb_human3_first199", 0.60, 0.62},
                                            MidCase{"pot210_V25_2", 0.85, 0.85},
                                            MidCase{"pot210_V24_7", 0.88, 0.83}),
                          [](const ::testing::TestParamInfo<MidCase>& info) {

@@ -122,6 +122,7 @@ void RegionTracker::initFromImage(RegionState* state, const cv::Mat& image, cons
       RegionAppearance::create(image, state->box, options_.appearance_size, &state->appearance, state->angle))
     state->first_appearance = state->appearance;
   if (options_.appearance && options_.appearance_filter) RegionFilter::create(image, state->box, &state->filter);
+  state->filter_size = state->box.size();
   // Its turns among the others' (appearance_budget) are staggered by id on
   // its first step, among the regions sharing that frame.
   state->look_wait = -1;
@@ -162,7 +163,23 @@ cv::Point2d RegionTracker::findByFilter(const RegionState& state, RegionState* n
   const double motion_confidence =
       motion_weak ? 0.0 : std::min(1.0, next->inliers.size() / options_.confidence_inliers);
   if (motion_confidence >= kFilterFirmlyCarried) return {};
-  const FilterMatch m = state.filter.locate(image, next->box);
+  FilterMatch m = state.filter.locate(image, next->box);
+  // The features' scale, checked: once the box's size has drifted
+  // kFilterSizeCheck or more from the size its filter last checked, the
+  // filter is asked at that size too, and that size is kept back when its
+  // peak is clearly the higher (by kFilterSizeMargin). The few features of
+  // a region in doubt make a noisy scale: a walker's box grew twice his
+  // size in 25 frames on swinging legs (Human3).
+  const double drift = std::abs(std::log(next->box.area() / std::max(1e-9, state.filter_size.area()))) / 2;
+  if (state.filter_size.area() > 0 && drift > std::log(kFilterSizeCheck)) {
+    const cv::Rect2d checked = region_geometry::withSize(next->box, state.filter_size);
+    const FilterMatch at_checked = state.filter.locate(image, checked);
+    if (at_checked.found && at_checked.peak > (1 + kFilterSizeMargin) * m.peak) {
+      next->box = checked;
+      m = at_checked;
+    }
+    if (m.found) next->filter_size = next->box.size();
+  }
   if (!m.found) return {};
   *psr = m.psr;
   // Sure: a clear peak, and not much weaker than its usual one (an occluder
@@ -480,6 +497,7 @@ void RegionTracker::reacquire(RegionState* next, const cv::Mat& image) const {
   next->appearance = look;
   next->first_appearance = first;
   next->filter = filter;
+  next->filter_size = m.box.size();
   next->frame_interval = interval;
   next->found_frames = 0;
   next->appearance_score = m.score;

@@ -112,6 +112,7 @@ struct RegionState {
   RegionFilter filter;             // its discriminative look (appearance_filter; invalid without it)
   bool filter_sure = false;        // its filter found it at this frame, clearly and about as strongly as usual
   double filter_peak = 0;          // the filter's usual peak when sure (0: not yet)
+  cv::Size2d filter_size;          // px; the size its filter last checked the box's at (findByFilter(); at placement, re-acquisition)
   int filter_unlearned = 0;        // frames since its filter last learned
   int filter_wait = 0;             // look turns until its filter's next (kFilterBudget); -1: not yet given its turns
   double appearance_score = -1;    // NCC of the look at this frame's box (-1: not checked)
@@ -237,7 +238,9 @@ class RegionTracker {
   // it (its clear match is to the pixel). A region found so is seen (not
   // coasting), and is not lost by its template's look (a walker's template
   // stops matching him within a few steps). After the look's check,
-  // learnFilter() teaches it the region's place.
+  // learnFilter() teaches it the region's place. It also checks the
+  // features' scale against the size it last checked (filter_size), and
+  // may set the box back to that size.
   // (`psr`: the find's peak-to-sidelobe ratio, 0 when not asked.)
   cv::Point2d findByFilter(const RegionState& state, RegionState* next, bool motion_weak, const cv::Mat& image,
                            double* psr) const;
@@ -257,6 +260,12 @@ class RegionTracker {
   static constexpr int kFilterLearnEvery = 2;
   static constexpr double kFilterGain = 0.5;
   static constexpr double kFilterFirmlyCarried = 0.5;
+  // The size drift (a factor, either way) at which the filter checks the
+  // features' scale, and the margin by which the size it last checked must
+  // peak higher to be kept back ("The features' scale checked by the
+  // filter" in docs/benchmarks.md).
+  static constexpr double kFilterSizeCheck = 1.05;
+  static constexpr double kFilterSizeMargin = 0.03;
   void reacquire(RegionState* next, const cv::Mat& image) const;
   // The look's correction of the region's turn, around its best match `m`.
   void turnByLook(const RegionState& state, RegionState* next, const AppearanceMatch& m, bool motion_weak,

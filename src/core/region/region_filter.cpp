@@ -104,6 +104,7 @@ std::vector<cv::Mat> RegionFilter::features(const cv::Mat& window) const {
   // OpenCV's vectorised kernels, into buffers on the stack (whole-window
   // float images cost more in allocation than in arithmetic here).
   const float per_bin = kOrientations / 180.0f, per_pixel = 1.0f / (kCellPx * kCellPx * 255.0f);
+  CV_DbgAssert(side <= kWindowPx);  // create(): at most kWindowPx / kCellPx cells
   float gx[kWindowPx], gy[kWindowPx], mag[kWindowPx], deg[kWindowPx];
   float* rows[kOrientations + 1];
   for (int y = 0; y < side; ++y) {

@@ -43,8 +43,11 @@
 // `lost` counts those frames too, rounded up to whole checks; one in doubt
 // is searched for wider, up to twice, the longer since its last check); a
 // lost region's searches around its last place between its whole-frame ones
-// also come on its turns. Without images the tracker runs on motion data
-// alone, as the paper's.
+// also come on its turns. A region its features carry weakly also asks a
+// correlation filter that tells it from its surround (region_filter.h,
+// `appearance_filter`): a clear find places it where the template did not,
+// keeps it seen, and checks the features' scale (findByFilter()). Without
+// images the tracker runs on motion data alone, as the paper's.
 //
 // A step works in either time direction: forward (frame k-1 -> k) and
 // backward (k -> k-1) use the same fit on reversed correspondences, which is

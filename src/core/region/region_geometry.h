@@ -61,6 +61,12 @@ inline double peakOffset(double left, double centre, double right) {
   return std::clamp(0.5 * (left - right) / d, -0.5, 0.5);
 }
 
+// How far apart two sizes are: |log| of the ratio of their geometric-mean
+// sides (0 when equal; log(1.1) when one is 1.1x the other).
+inline double sizeOff(const cv::Size2d& a, const cv::Size2d& b) {
+  return std::abs(std::log(a.area() / std::max(1e-9, b.area()))) / 2;
+}
+
 // The fraction of `box` inside an image of `size`.
 inline double fractionInside(const cv::Rect2d& box, cv::Size size) {
   const cv::Rect2d inter = box & cv::Rect2d(0, 0, size.width, size.height);

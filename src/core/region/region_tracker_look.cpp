@@ -170,8 +170,8 @@ cv::Point2d RegionTracker::findByFilter(const RegionState& state, RegionState* n
   // peak is clearly the higher (by kFilterSizeMargin). The few features of
   // a region in doubt make a noisy scale: a walker's box grew twice his
   // size in 25 frames on swinging legs (Human3).
-  const double drift = std::abs(std::log(next->box.area() / std::max(1e-9, state.filter_size.area()))) / 2;
-  if (state.filter_size.area() > 0 && drift > std::log(kFilterSizeCheck)) {
+  if (state.filter_size.area() > 0 &&
+      region_geometry::sizeOff(next->box.size(), state.filter_size) > std::log(kFilterSizeCheck)) {
     const cv::Rect2d checked = region_geometry::withSize(next->box, state.filter_size);
     const FilterMatch at_checked = state.filter.locate(image, checked);
     if (at_checked.found && at_checked.peak > (1 + kFilterSizeMargin) * m.peak) {
@@ -475,8 +475,8 @@ void RegionTracker::reacquire(RegionState* next, const cv::Mat& image) const {
   // Only when the search at the box found nothing: searching both and
   // keeping the better found region_hidden later among 99 others.
   const cv::Rect2d look_box = region_geometry::withSize(next->box, next->look_size);
-  const double off = std::abs(std::log(look_box.area() / std::max(1e-9, next->box.area()))) / 2;
-  if (off > std::log(1.1) && (!m.found || m.score < o.reacquire_score)) {
+  if (region_geometry::sizeOff(look_box.size(), next->box.size()) > std::log(1.1) &&
+      (!m.found || m.score < o.reacquire_score)) {
     const AppearanceMatch at_look = search(look_box);
     if (at_look.found && at_look.score > m.score) m = at_look;
   }

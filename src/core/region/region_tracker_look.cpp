@@ -133,28 +133,26 @@ void RegionTracker::lookTurn(const RegionState& state, RegionState* next, bool m
                              const cv::Mat& image) const {
   // The filter costs about ten times the template's check: with more
   // regions than kFilterBudget, each asks its filter on every
-  // filter_interval_-th turn only (staggered by id). Its verdict
-  // (filter_sure) counts on the turn it was asked on only.
-  next->filter_sure = false;
+  // filter_interval_-th turn only (staggered by id). Its verdict counts on
+  // the turn it was asked on only.
   const int wait = state.filter_wait < 0 ? static_cast<int>(state.id % filter_interval_) : state.filter_wait;
   const bool filter_turn = options_.appearance_filter && (wait <= 0 || wait >= filter_interval_);
   next->filter_wait = filter_turn ? filter_interval_ - 1 : wait - 1;
-  double psr = 0;
-  const cv::Point2d by_filter = filter_turn ? findByFilter(state, next, motion_weak, image, &psr) : cv::Point2d();
+  const FilterFind find = filter_turn ? findByFilter(state, next, motion_weak, image) : FilterFind();
   const cv::Point2d motion_centre = (next->box.tl() + next->box.br()) / 2;
-  checkAppearance(state, next, motion_weak, image);
+  checkAppearance(state, next, motion_weak, image, find.sure);
   // The template's clear match is to the pixel, the filter's to its cells:
   // the filter moves a region the template did not.
   if (motion_centre == (next->box.tl() + next->box.br()) / 2) {
-    next->box.x += by_filter.x;
-    next->box.y += by_filter.y;
+    next->box.x += find.move.x;
+    next->box.y += find.move.y;
   }
-  if (filter_turn) learnFilter(next, image, psr);
+  if (filter_turn) learnFilter(next, image, find);
   next->look_age = 0;
 }
 
-cv::Point2d RegionTracker::findByFilter(const RegionState& state, RegionState* next, bool motion_weak,
-                                       const cv::Mat& image, double* psr) const {
+RegionTracker::FilterFind RegionTracker::findByFilter(const RegionState& state, RegionState* next,
+                                                     bool motion_weak, const cv::Mat& image) const {
   if (!state.filter.valid() || next->status == RegionStatus::kLost || next->status == RegionStatus::kOutOfView)
     return {};
   // Where many features carry the region, they place it more precisely
@@ -181,11 +179,12 @@ cv::Point2d RegionTracker::findByFilter(const RegionState& state, RegionState* n
     if (m.found) next->filter_size = next->box.size();
   }
   if (!m.found) return {};
-  *psr = m.psr;
+  FilterFind find;
+  find.psr = m.psr;
   // Sure: a clear peak, and not much weaker than its usual one (an occluder
   // sliding over the region still gives a clear peak somewhere, a weak one).
-  next->filter_sure = m.psr >= kFilterSurePsr && m.peak >= kFilterSurePeak * state.filter_peak;
-  if (!next->filter_sure) return {};
+  find.sure = m.psr >= kFilterSurePsr && m.peak >= kFilterSurePeak * state.filter_peak;
+  if (!find.sure) return find;
   next->filter_peak = state.filter_peak > 0 ? (1 - kFilterPeakRate) * state.filter_peak + kFilterPeakRate * m.peak
                                             : m.peak;
   if (motion_weak) {
@@ -193,12 +192,13 @@ cv::Point2d RegionTracker::findByFilter(const RegionState& state, RegionState* n
     next->coast_frames = 0;
     if (next->status == RegionStatus::kFeatureless) next->status = RegionStatus::kTracked;
   }
-  return kFilterGain * lookGain(state, motion_weak, motion_confidence) * m.shift;
+  find.move = kFilterGain * lookGain(state, motion_weak, motion_confidence) * m.shift;
+  return find;
 }
 
-void RegionTracker::learnFilter(RegionState* next, const cv::Mat& image, double psr) const {
+void RegionTracker::learnFilter(RegionState* next, const cv::Mat& image, const FilterFind& find) const {
   // Only on a clear find: a filter that learned an occluder would follow it.
-  if (!next->filter.valid() || !next->filter_sure || psr < kFilterLearnPsr ||
+  if (!next->filter.valid() || !find.sure || find.psr < kFilterLearnPsr ||
       next->status == RegionStatus::kLost || next->status == RegionStatus::kOutOfView)
     return;
   // Every kFilterLearnEvery frames or more (the frames between its turns
@@ -210,7 +210,7 @@ void RegionTracker::learnFilter(RegionState* next, const cv::Mat& image, double 
 }
 
 void RegionTracker::checkAppearance(const RegionState& state, RegionState* next, bool motion_weak,
-                                    const cv::Mat& image) const {
+                                    const cv::Mat& image, bool filter_sure) const {
   const RegionTrackerOptions& o = options_;
   if (next->status == RegionStatus::kLost || next->status == RegionStatus::kOutOfView) {
     next->appearance_score = -1;
@@ -319,7 +319,7 @@ void RegionTracker::checkAppearance(const RegionState& state, RegionState* next,
         next->look_size = next->box.size();
       }
     }
-  } else if (score < o.appearance_lost_score && !next->filter_sure) {
+  } else if (score < o.appearance_lost_score && !filter_sure) {
     // It looks wrong. Lost after appearance_lost_frames of that while few
     // features carry it, three times as long while many do (a turning or
     // tilting target changes its look while its features hold it).

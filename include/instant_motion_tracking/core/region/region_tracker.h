@@ -113,7 +113,6 @@ struct RegionState {
   RegionAppearance appearance;     // its look (invalid without images, or for a flat box)
   RegionAppearance first_appearance;  // its look at placement (checks the template's updates)
   RegionFilter filter;             // its discriminative look (appearance_filter; invalid without it)
-  bool filter_sure = false;        // its filter found it at this frame, clearly and about as strongly as usual
   double filter_peak = 0;          // the filter's usual peak when sure (0: not yet)
   cv::Size2d filter_size;          // px; the size its filter last checked the box's at (findByFilter(); at placement, re-acquisition)
   int filter_unlearned = 0;        // frames since its filter last learned
@@ -229,14 +228,25 @@ class RegionTracker {
   void addOwnFeatures(RegionState* state, const cv::Mat& image, int motion_features) const;
   // The appearance check after the motion step (`motion_weak`: the step had
   // no support of its own), and the search for a lost region.
-  void checkAppearance(const RegionState& state, RegionState* next, bool motion_weak, const cv::Mat& image) const;
+  // `filter_sure`: its filter found it on this turn (FilterFind), and its
+  // look does not count against it.
+  void checkAppearance(const RegionState& state, RegionState* next, bool motion_weak, const cv::Mat& image,
+                       bool filter_sure) const;
   // A region's look turn: its filter (on the filter's turn), then its
   // template's check, then the filter's move and learning; `next`'s look_age
   // restarts.
   void lookTurn(const RegionState& state, RegionState* next, bool motion_weak, const cv::Mat& image) const;
+  // What a region's filter said on its turn: the move it asks (kFilterGain
+  // times the look's gain), the find's peak-to-sidelobe ratio (0: not
+  // asked, or nothing found), and whether the find was sure.
+  struct FilterFind {
+    cv::Point2d move;
+    double psr = 0;
+    bool sure = false;
+  };
   // The filter's correction of the region's place after the motion step,
-  // where its features carry it weakly (region_filter.h): on a sure find
-  // (filter_sure), kFilterGain times as far as the look moves it
+  // where its features carry it weakly (region_filter.h): on a sure find,
+  // kFilterGain times as far as the look moves it
   // (lookGain()), applied by step() when the template's check did not move
   // it (its clear match is to the pixel). A region found so is seen (not
   // coasting), and is not lost by its template's look (a walker's template
@@ -244,10 +254,8 @@ class RegionTracker {
   // learnFilter() teaches it the region's place. It also checks the
   // features' scale against the size it last checked (filter_size), and
   // may set the box back to that size.
-  // (`psr`: the find's peak-to-sidelobe ratio, 0 when not asked.)
-  cv::Point2d findByFilter(const RegionState& state, RegionState* next, bool motion_weak, const cv::Mat& image,
-                           double* psr) const;
-  void learnFilter(RegionState* next, const cv::Mat& image, double psr) const;
+  FilterFind findByFilter(const RegionState& state, RegionState* next, bool motion_weak, const cv::Mat& image) const;
+  void learnFilter(RegionState* next, const cv::Mat& image, const FilterFind& find) const;
   // A sure find: a peak-to-sidelobe ratio of kFilterSurePsr or more, and a
   // peak of at least kFilterSurePeak times its usual (a running mean over
   // sure finds, kFilterPeakRate a find). It learns only from finds with a

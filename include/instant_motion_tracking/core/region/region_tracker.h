@@ -236,13 +236,13 @@ class RegionTracker {
   // template's check, then the filter's move and learning; `next`'s look_age
   // restarts.
   void lookTurn(const RegionState& state, RegionState* next, bool motion_weak, const cv::Mat& image) const;
-  // What a region's filter said on its turn: the move it asks (kFilterGain
-  // times the look's gain), the find's peak-to-sidelobe ratio (0: not
-  // asked, or nothing found), and whether the find was sure.
+  // What a region's filter said on its turn: whether its find was sure,
+  // the move it asks of the box (zero unless sure), and the find's
+  // peak-to-sidelobe ratio (0: not asked, or nothing found).
   struct FilterFind {
+    bool sure = false;
     cv::Point2d move;
     double psr = 0;
-    bool sure = false;
   };
   // The filter's correction of the region's place after the motion step,
   // where its features carry it weakly (region_filter.h): on a sure find,

@@ -405,6 +405,47 @@ TEST(RegionAppearance, FilterKeepsBackAScaleTheFewFeaturesMake) {
   EXPECT_LT(with_filter, template_only - 0.05);
 }
 
+// A region in doubt whose template no longer matches at all, while its
+// shape holds: here the whole scene's gray levels are turned over (a
+// correlation of -1 everywhere), which the filter's unsigned gradient
+// orientations do not see. Its filter finds it clearly on every turn, and a
+// sure find vetoes the template's count toward its loss (lookTurn() hands
+// the find to checkAppearance()). With the template alone it is lost after
+// appearance_lost_frames.
+TEST(RegionAppearance, FilterKeepsARegionItsTemplateNoLongerKnows) {
+  const cv::Mat img = texture();
+  cv::Mat inverted;
+  cv::bitwise_not(img, inverted);
+  const cv::Rect2d box(130, 100, 60, 40);
+  const auto run = [&](bool filter, double* worst) {
+    RegionTrackerOptions o;
+    o.region_features = 0;  // no features of its own: in doubt on every frame
+    o.appearance_filter = filter;
+    RegionTracker tracker(o, kSize);
+    RegionState s = placed(tracker, img, box);
+    *worst = 0;
+    for (int k = 1; k <= 2 * o.appearance_lost_frames; ++k) {
+      MotionData md = emptyMotion(0.033 * k);
+      md.camera.model = MotionModel::kHomography;  // a still camera (identity)
+      const cv::Mat& frame = k < 5 ? img : inverted;
+      s = tracker.step(s, md, Direction::kForward, 0, frame, frame);
+      if (s.status == RegionStatus::kLost) return s;
+      *worst = std::max(*worst, centreError(s.box, box));
+    }
+    return s;
+  };
+  double worst_with = 0, worst_without = 0;
+  const RegionState with_filter = run(true, &worst_with);
+  const RegionState template_only = run(false, &worst_without);
+  std::printf("gray levels turned over: with the filter %s (worst centre error %.2f px), with the template alone %s\n",
+              regionStatusName(with_filter.status), worst_with, regionStatusName(template_only.status));
+  EXPECT_NE(with_filter.status, RegionStatus::kLost) << with_filter.reason;
+  // The image stands still, and the filter's cells are 4 px here (its
+  // window, under kWindowPx, is not scaled): within one cell.
+  EXPECT_LT(worst_with, 4.0);
+  EXPECT_EQ(template_only.status, RegionStatus::kLost);
+}
+
 // A region lost for long searches less often (each search is a template
 // match over 5 scales, 2.8 ms on the cards benchmark), but still comes back.
 TEST(RegionAppearance, LongLostRegionSearchesLessOftenButComesBack) {

@@ -31,6 +31,13 @@ MotionData emptyMotion(double stamp) {
   return md;  // no features, camera model invalid
 }
 
+// Motion data from a still camera (the identity homography), no features.
+MotionData stillCamera(double stamp) {
+  MotionData md = emptyMotion(stamp);
+  md.camera.model = MotionModel::kHomography;
+  return md;
+}
+
 double centreError(const cv::Rect2d& a, const cv::Rect2d& b) {
   const cv::Point2d d = (a.tl() + a.br()) / 2 - (b.tl() + b.br()) / 2;
   return std::hypot(d.x, d.y);
@@ -306,8 +313,7 @@ TEST(RegionAppearance, LookTakesTheBoxsAspectAlong) {
       cv::Mat frame;
       const cv::Mat m = (cv::Mat_<double>(2, 3) << sx, 0, c.x * (1 - sx), 0, 1, 0);
       cv::warpAffine(img, frame, m, img.size(), cv::INTER_LINEAR, cv::BORDER_REFLECT);
-      MotionData md = emptyMotion(0.033 * k);
-      md.camera.model = MotionModel::kHomography;  // a still camera (identity)
+      const MotionData md = stillCamera(0.033 * k);
       s = tracker.step(s, md, Direction::kForward, 0, frame, prev);
       prev = frame;
     }
@@ -347,8 +353,7 @@ TEST(RegionAppearance, LookSizesARegionTheFeaturesCarryWeakly) {
     s.box = region_geometry::withSize(box, box.size() * off);  // about the box's centre
     double sum = 0;
     for (int k = 1; k <= 90; ++k) {
-      MotionData md = emptyMotion(0.033 * k);
-      md.camera.model = MotionModel::kHomography;  // a still camera (identity)
+      const MotionData md = stillCamera(0.033 * k);
       s = tracker.step(s, md, Direction::kForward, 0, img, img);
       if (k > 60) sum += std::sqrt(s.box.area() / box.area());
     }
@@ -385,8 +390,7 @@ TEST(RegionAppearance, FilterKeepsBackAScaleTheFewFeaturesMake) {
     RegionState s = placed(tracker, img, box);
     double sum = 0;
     for (int k = 1; k <= 60; ++k) {
-      MotionData md = emptyMotion(0.033 * k);
-      md.camera.model = MotionModel::kHomography;  // a still camera (identity)
+      const MotionData md = stillCamera(0.033 * k);
       s.box = region_geometry::withSize(s.box, s.box.size() * 1.02);
       s = tracker.step(s, md, Direction::kForward, 0, img, img);
       if (k > 30) sum += std::sqrt(s.box.area() / box.area());
@@ -425,8 +429,7 @@ TEST(RegionAppearance, FilterKeepsARegionItsTemplateNoLongerKnows) {
     RegionState s = placed(tracker, img, box);
     *worst = 0;
     for (int k = 1; k <= 2 * o.appearance_lost_frames; ++k) {
-      MotionData md = emptyMotion(0.033 * k);
-      md.camera.model = MotionModel::kHomography;  // a still camera (identity)
+      const MotionData md = stillCamera(0.033 * k);
       const cv::Mat& frame = k < 5 ? img : inverted;
       s = tracker.step(s, md, Direction::kForward, 0, frame, frame);
       if (s.status == RegionStatus::kLost) return s;

@@ -130,8 +130,7 @@ const MotionData& TrackingSession::analyze(const cv::Mat& gray, double stamp) {
   dropStaleFrames(stamp);
   // The image goes along for the trackers that read it (kept within its
   // budget) and, live, for the overlays of the frame's results.
-  pending_.push_back({last_motion_, trackersUseImages() || mode_ == Mode::kLive ? gray : cv::Mat()});
-  advance(false);
+  queue(last_motion_, trackersUseImages() || mode_ == Mode::kLive ? gray : cv::Mat());
   return last_motion_;
 }
 
@@ -144,8 +143,22 @@ void TrackingSession::dropStaleFrames(double stamp) {
 void TrackingSession::pushMotion(const MotionData& md, const cv::Mat& gray) {
   if (dropByTime(md.stamp)) return;
   dropStaleFrames(md.stamp);
+  queue(md, gray);
+}
+
+void TrackingSession::queue(const MotionData& md, const cv::Mat& gray) {
   pending_.push_back({md, gray});
   advance(false);
+  // Still waiting for the IMU: its own copy of the image, as the caller may
+  // write into its buffer meanwhile (a capture loop reusing one).
+  if (!pending_.empty() && !pending_.back().gray.empty()) pending_.back().gray = ownImage(pending_.back().gray);
+}
+
+cv::Mat TrackingSession::ownImage(const cv::Mat& gray) {
+  // Only this session holds its pixels (a copy it made, or a buffer no one
+  // else refers to; never the caller's memory wrapped): kept as it is.
+  if (gray.u != nullptr && gray.u->refcount == 1) return gray;
+  return gray.clone();
 }
 
 void TrackingSession::advance(bool all) {
@@ -160,7 +173,7 @@ void TrackingSession::trackOldest() {
   pending_.pop_front();
   const auto t0 = Clock::now();
   FrameResult r;
-  r.regions = userRegions(regions_.update(frame.md, trackersUseImages() ? frame.gray.clone() : cv::Mat()));
+  r.regions = userRegions(regions_.update(frame.md, trackersUseImages() ? ownImage(frame.gray) : cv::Mat()));
   r.reset = regions_.lastReset();
   anchors_->update();
   const auto t1 = Clock::now();

@@ -410,6 +410,49 @@ TEST(TrackingSession, RequestsForNowLeaveFramesWaitingForTheImu) {
   EXPECT_GT(with_anchor, 30);
 }
 
+// A caller that reuses one buffer for every frame (a capture loop) while
+// frames wait for their IMU (an anchor, the driver 0.05 s late): each frame
+// the trackers keep is the frame as it was given, not what the caller wrote
+// into its buffer after (the regions' look would read a later frame, and say
+// nothing).
+TEST(TrackingSession, FramesWaitingForTheImuAreKeptAsGiven) {
+  const Rendered r = render("floor_walk", 1.0);
+  ASSERT_TRUE(r.scene);
+  TrackingSession s(PipelineOptions(), TrackingSession::Mode::kLive);
+  s.setCameraInfo(r.scene->intrinsics());
+  ASSERT_TRUE(s.setRotationCamImu(r.scene->options().q_cam_imu));
+  size_t next_imu = 0;
+  uint32_t id;
+  std::string err;
+  const int given = 5;
+  cv::Mat buffer;  // the caller's one buffer
+  int waited = 0;
+  for (int i = 0; i < static_cast<int>(r.frames.size()); ++i) {
+    const double t = r.scene->frameStamp(i);
+    while (next_imu < r.imu.size() && r.imu[next_imu].stamp <= t - 0.05) s.addImu(r.imu[next_imu++]);
+    r.frames[i].copyTo(buffer);
+    s.analyze(buffer, t);
+    if (i == given) {
+      const FrameTruth truth = r.scene->frameTruth(given);
+      ASSERT_FALSE(truth.anchors.empty());
+      ASSERT_TRUE(s.addAnchor(1, t, truth.anchors[0].pixel, 0, &id, &err)) << err;
+    }
+    if (s.cache().empty() || s.cache().newestStamp() < t) ++waited;
+    s.takeResults();
+  }
+  while (next_imu < r.imu.size()) s.addImu(r.imu[next_imu++]);
+  s.advance(true);
+  EXPECT_GT(waited, 10);  // else this tests nothing
+  const MotionCache& cache = s.cache();
+  ASSERT_EQ(cache.size(), r.frames.size());
+  for (uint64_t q = cache.firstSeq(); q <= cache.lastSeq(); ++q) {
+    const int i = static_cast<int>(q - cache.firstSeq());
+    const cv::Mat kept = cache.image(q);
+    ASSERT_FALSE(kept.empty()) << "frame " << i;
+    EXPECT_EQ(cv::norm(kept, r.frames[i], cv::NORM_INF), 0.0) << "frame " << i << " kept as the caller's buffer became";
+  }
+}
+
 // The cards scene of the live-vs-offline rostest (seed 2, 4 s): a card as a
 // region, the static patch as a planar target and an anchor at its centre,
 // given at frame 30 once frame 60 is in.

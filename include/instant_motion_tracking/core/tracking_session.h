@@ -119,7 +119,8 @@ class TrackingSession {
   // dropped (not analysed, not tracked: lastDrop() says why, and the
   // returned motion data is the newest frame's); one farther behind restarts
   // tracking (a bag loop: lastAnalysisReset(), FrameResult::reset); a jump
-  // forward is a gap, tracked across.
+  // forward is a gap, tracked across. The session keeps copies of what it
+  // keeps of `gray`: the caller may write into its buffer once this returns.
   const MotionData& analyze(const cv::Mat& gray, double stamp);
   // Why the last frame given was dropped ("" when it was not).
   const std::string& lastDrop() const { return last_drop_; }
@@ -137,7 +138,8 @@ class TrackingSession {
   // Why the last analyze() restarted the motion analysis ("" when it did not).
   const std::string& lastAnalysisReset() const { return analyzer_.lastReset(); }
   // Queues motion data analysed elsewhere (a tracker nodelet fed by the
-  // motion_data topic); `gray` optional, for the planar alignment.
+  // motion_data topic); `gray` optional, for the planar alignment (kept as
+  // analyze() keeps it).
   void pushMotion(const MotionData& md, const cv::Mat& gray = cv::Mat());
   // Runs the trackers on the queued frames that are ready (all of them with
   // `all`): their IMU has come, or nothing waits for it.
@@ -187,6 +189,12 @@ class TrackingSession {
     MotionData md;
     cv::Mat gray;
   };
+  // Queues a frame for the trackers and takes through those the IMU allows;
+  // a frame left waiting keeps its own copy of `gray`.
+  void queue(const MotionData& md, const cv::Mat& gray);
+  // `gray` as the trackers keep it: itself when only this session holds its
+  // pixels, else a copy (the caller may write into its buffer afterwards).
+  static cv::Mat ownImage(const cv::Mat& gray);
   // Takes the oldest waiting frame through the trackers.
   void trackOldest();
   void dropStaleFrames(double stamp);

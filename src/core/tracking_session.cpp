@@ -173,7 +173,9 @@ void TrackingSession::trackOldest() {
   pending_.pop_front();
   const auto t0 = Clock::now();
   FrameResult r;
-  r.regions = userRegions(regions_.update(frame.md, trackersUseImages() ? ownImage(frame.gray) : cv::Mat()));
+  // The trackers' copy serves the overlays as well.
+  if (trackersUseImages() && !frame.gray.empty()) frame.gray = ownImage(frame.gray);
+  r.regions = userRegions(regions_.update(frame.md, trackersUseImages() ? frame.gray : cv::Mat()));
   r.reset = regions_.lastReset();
   anchors_->update();
   const auto t1 = Clock::now();

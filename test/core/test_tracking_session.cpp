@@ -412,9 +412,9 @@ TEST(TrackingSession, RequestsForNowLeaveFramesWaitingForTheImu) {
 
 // A caller that reuses one buffer for every frame (a capture loop) while
 // frames wait for their IMU (an anchor, the driver 0.05 s late): each frame
-// the trackers keep is the frame as it was given, not what the caller wrote
-// into its buffer after (the regions' look would read a later frame, and say
-// nothing).
+// the trackers keep, and each result's frame, is the frame as it was given,
+// not what the caller wrote into its buffer after (the regions' look would
+// read a later frame, and say nothing).
 TEST(TrackingSession, FramesWaitingForTheImuAreKeptAsGiven) {
   const Rendered r = render("floor_walk", 1.0);
   ASSERT_TRUE(r.scene);
@@ -427,6 +427,7 @@ TEST(TrackingSession, FramesWaitingForTheImuAreKeptAsGiven) {
   const int given = 5;
   cv::Mat buffer;  // the caller's one buffer
   int waited = 0;
+  std::vector<FrameResult> results;
   for (int i = 0; i < static_cast<int>(r.frames.size()); ++i) {
     const double t = r.scene->frameStamp(i);
     while (next_imu < r.imu.size() && r.imu[next_imu].stamp <= t - 0.05) s.addImu(r.imu[next_imu++]);
@@ -438,11 +439,17 @@ TEST(TrackingSession, FramesWaitingForTheImuAreKeptAsGiven) {
       ASSERT_TRUE(s.addAnchor(1, t, truth.anchors[0].pixel, 0, &id, &err)) << err;
     }
     if (s.cache().empty() || s.cache().newestStamp() < t) ++waited;
-    s.takeResults();
+    for (FrameResult& fr : s.takeResults()) results.push_back(std::move(fr));
   }
   while (next_imu < r.imu.size()) s.addImu(r.imu[next_imu++]);
   s.advance(true);
+  for (FrameResult& fr : s.takeResults()) results.push_back(std::move(fr));
   EXPECT_GT(waited, 10);  // else this tests nothing
+  // The results' frames (the overlays'), every one taken after the caller
+  // wrote the next frames into its buffer.
+  ASSERT_EQ(results.size(), r.frames.size());
+  for (size_t i = 0; i < results.size(); ++i)
+    EXPECT_EQ(cv::norm(results[i].gray, r.frames[i], cv::NORM_INF), 0.0) << "result " << i;
   const MotionCache& cache = s.cache();
   ASSERT_EQ(cache.size(), r.frames.size());
   for (uint64_t q = cache.firstSeq(); q <= cache.lastSeq(); ++q) {

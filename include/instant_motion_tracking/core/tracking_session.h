@@ -52,7 +52,10 @@ struct FrameResult {
   // Why the trackers were cleared at this frame (time went back, the image
   // size changed); "" normally. The items given before are gone.
   std::string reset;
-  cv::Mat gray;  // the frame (live, when given to analyze()); for overlays
+  // The frame (live, when given to analyze()), for overlays: the session's
+  // copy where its trackers keep frames or the frame waited for the IMU,
+  // else the caller's image as given.
+  cv::Mat gray;
   CameraModel camera;  // the camera model of the frame
 };
 

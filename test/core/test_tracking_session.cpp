@@ -364,6 +364,37 @@ TEST(TrackingSession, LiveAndOfflineAgreeOnAnchors) {
   EXPECT_GT(tracked, static_cast<int>(r.frames.size()) / 2);
 }
 
+// A live session over `r`'s frames with the IMU driver 0.05 s late and an
+// anchor given at frame `given`, so that frames wait for their IMU:
+// `give(i, t)` hands frame i to `s`, `then(i, t)` runs after it (with
+// s.takeResults() taken after both). Returns every result, in order. False
+// `anchored`: the anchor was refused (a failure of the test's own).
+std::vector<FrameResult> withLateImu(TrackingSession& s, const Rendered& r, int given,
+                                     const std::function<void(int, double)>& give,
+                                     const std::function<void(int, double)>& then, bool* anchored) {
+  s.setCameraInfo(r.scene->intrinsics());
+  *anchored = s.setRotationCamImu(r.scene->options().q_cam_imu);
+  std::vector<FrameResult> results;
+  size_t next_imu = 0;
+  for (int i = 0; i < static_cast<int>(r.frames.size()); ++i) {
+    const double t = r.scene->frameStamp(i);
+    while (next_imu < r.imu.size() && r.imu[next_imu].stamp <= t - 0.05) s.addImu(r.imu[next_imu++]);
+    give(i, t);
+    if (i == given) {
+      const FrameTruth truth = r.scene->frameTruth(given);
+      uint32_t id;
+      std::string err;
+      *anchored = *anchored && !truth.anchors.empty() && s.addAnchor(1, t, truth.anchors[0].pixel, 0, &id, &err);
+    }
+    then(i, t);
+    for (FrameResult& fr : s.takeResults()) results.push_back(std::move(fr));
+  }
+  while (next_imu < r.imu.size()) s.addImu(r.imu[next_imu++]);
+  s.advance(true);
+  for (FrameResult& fr : s.takeResults()) results.push_back(std::move(fr));
+  return results;
+}
+
 // Requests given "now" (stamp 0) while frames wait for their IMU (the
 // driver 0.05 s late): they go to the newest frame already through the
 // trackers, and the waiting frames keep waiting, so every frame's anchor
@@ -373,33 +404,21 @@ TEST(TrackingSession, RequestsForNowLeaveFramesWaitingForTheImu) {
   const Rendered r = render("floor_walk", 1.5);
   ASSERT_TRUE(r.scene);
   TrackingSession s(PipelineOptions(), TrackingSession::Mode::kLive);
-  s.setCameraInfo(r.scene->intrinsics());
-  ASSERT_TRUE(s.setRotationCamImu(r.scene->options().q_cam_imu));
-  std::vector<FrameResult> results;
-  size_t next_imu = 0;
-  uint32_t id;
-  std::string err;
   const int given = 10;
-  for (int i = 0; i < static_cast<int>(r.frames.size()); ++i) {
-    const double t = r.scene->frameStamp(i);
-    while (next_imu < r.imu.size() && r.imu[next_imu].stamp <= t - 0.05) s.addImu(r.imu[next_imu++]);
-    s.analyze(r.frames[i], t);
-    if (i == given) {
-      const FrameTruth truth = r.scene->frameTruth(given);
-      ASSERT_FALSE(truth.anchors.empty());
-      ASSERT_TRUE(s.addAnchor(1, t, truth.anchors[0].pixel, 0, &id, &err)) << err;
-    }
-    if (i > given) {
-      // Refused and accepted requests for "now" alike.
-      EXPECT_FALSE(s.addAnchor(1, 0, cv::Point2d(100, 100), 0, &id, &err));
-      EXPECT_TRUE(s.addRegion(0, 0, cv::Rect2d(100, 100, 60, 50), &id, &err)) << err;
-      EXPECT_TRUE(s.removeRegion(id, &err)) << err;
-    }
-    for (FrameResult& fr : s.takeResults()) results.push_back(std::move(fr));
-  }
-  while (next_imu < r.imu.size()) s.addImu(r.imu[next_imu++]);
-  s.advance(true);
-  for (FrameResult& fr : s.takeResults()) results.push_back(std::move(fr));
+  bool anchored = false;
+  const std::vector<FrameResult> results = withLateImu(
+      s, r, given, [&](int i, double t) { s.analyze(r.frames[i], t); },
+      [&](int i, double) {
+        if (i <= given) return;
+        // Refused and accepted requests for "now" alike.
+        uint32_t id;
+        std::string err;
+        EXPECT_FALSE(s.addAnchor(1, 0, cv::Point2d(100, 100), 0, &id, &err));
+        EXPECT_TRUE(s.addRegion(0, 0, cv::Rect2d(100, 100, 60, 50), &id, &err)) << err;
+        EXPECT_TRUE(s.removeRegion(id, &err)) << err;
+      },
+      &anchored);
+  ASSERT_TRUE(anchored);
   ASSERT_EQ(results.size(), r.frames.size());  // every frame once, in order
   int with_anchor = 0;
   for (const FrameResult& fr : results) {
@@ -419,31 +438,17 @@ TEST(TrackingSession, FramesWaitingForTheImuAreKeptAsGiven) {
   const Rendered r = render("floor_walk", 1.0);
   ASSERT_TRUE(r.scene);
   TrackingSession s(PipelineOptions(), TrackingSession::Mode::kLive);
-  s.setCameraInfo(r.scene->intrinsics());
-  ASSERT_TRUE(s.setRotationCamImu(r.scene->options().q_cam_imu));
-  size_t next_imu = 0;
-  uint32_t id;
-  std::string err;
-  const int given = 5;
   cv::Mat buffer;  // the caller's one buffer
   int waited = 0;
-  std::vector<FrameResult> results;
-  for (int i = 0; i < static_cast<int>(r.frames.size()); ++i) {
-    const double t = r.scene->frameStamp(i);
-    while (next_imu < r.imu.size() && r.imu[next_imu].stamp <= t - 0.05) s.addImu(r.imu[next_imu++]);
-    r.frames[i].copyTo(buffer);
-    s.analyze(buffer, t);
-    if (i == given) {
-      const FrameTruth truth = r.scene->frameTruth(given);
-      ASSERT_FALSE(truth.anchors.empty());
-      ASSERT_TRUE(s.addAnchor(1, t, truth.anchors[0].pixel, 0, &id, &err)) << err;
-    }
-    if (s.cache().empty() || s.cache().newestStamp() < t) ++waited;
-    for (FrameResult& fr : s.takeResults()) results.push_back(std::move(fr));
-  }
-  while (next_imu < r.imu.size()) s.addImu(r.imu[next_imu++]);
-  s.advance(true);
-  for (FrameResult& fr : s.takeResults()) results.push_back(std::move(fr));
+  bool anchored = false;
+  const std::vector<FrameResult> results = withLateImu(
+      s, r, 5,
+      [&](int i, double t) {
+        r.frames[i].copyTo(buffer);
+        s.analyze(buffer, t);
+      },
+      [&](int, double t) { waited += s.cache().empty() || s.cache().newestStamp() < t; }, &anchored);
+  ASSERT_TRUE(anchored);
   EXPECT_GT(waited, 10);  // else this tests nothing
   // The results' frames (the overlays'), every one taken after the caller
   // wrote the next frames into its buffer.

@@ -83,21 +83,26 @@ def check(root, out):
         problems.append("no latency measured")
 
     # The strip: six 640x480 debug images, 3 x 2, with the overlay drawn by the
-    # live MotionAnalysisNodelet: region boxes (yellow, BGR 0,220,255) in every
-    # tile and the planar-target quad (magenta) in most (under load a frame
-    # whose target state comes later than the overlay waits goes out without
-    # it; the regions' states are cheap and in time).
+    # live MotionAnalysisNodelet: region boxes (yellow, BGR 0,220,255) and the
+    # planar-target quad (magenta) in most tiles. Not in all: the strip's
+    # frames are chosen from 0.2 s after the graph's outputs showed the last
+    # add, and under load (the CI's ctest -j2 on a slow day) the first tile's
+    # frame was tracked before the adds (no region there in the regions topic
+    # either); a frame whose target state comes later than the overlay waits
+    # goes out without the quad. Every region the regions topic has at a
+    # tile's stamp is checked to be drawn there (overlay_check, below).
     strip = cv2.imread(os.path.join(live, "strip.png"))
     if strip is None or strip.shape != (960, 1920, 3):
         problems.append("strip.png: shape %s, expected 960x1920x3" % (None if strip is None else strip.shape,))
     else:
-        with_quad = 0
+        with_quad, with_boxes = 0, []
         for i in range(6):
             tile = strip[(i // 3) * 480:(i // 3 + 1) * 480, (i % 3) * 640:(i % 3 + 1) * 640]
-            yellow = np.all(tile == (0, 220, 255), axis=2).sum()
+            with_boxes.append(np.all(tile == (0, 220, 255), axis=2).sum() >= 500)
             with_quad += np.all(tile == (255, 0, 255), axis=2).sum() >= 100
-            if yellow < 500:
-                problems.append("strip tile %d: %d region-box pixels (no overlay?)" % (i, yellow))
+        if sum(with_boxes) < 4 or not with_boxes[-1]:
+            problems.append("region boxes drawn in strip tiles %s of 0-5 (no overlay?)"
+                            % [i for i, b in enumerate(with_boxes) if b])
         if with_quad < 4:
             problems.append("the planar target's quad is drawn in %d of 6 strip tiles" % with_quad)
     # ... and each tracked region's box drawn at the place the regions topic

@@ -58,9 +58,13 @@ def check(root, out):
     # for a loaded machine without hiding a broken topic.
     # debug_image is a viewer's stream: a slow subscriber (this recorder,
     # encoding video on a loaded machine) loses frames at the publisher's
-    # queue by design, never holding the trackers back; half is enough there.
+    # queue by design, never holding the trackers back. How many it loses
+    # follows the machine: 67 of 120 and 45 of 120 under the CI's ctest -j2
+    # on 2026-11-29, a day its build took 9 min instead of 5. A quarter still
+    # shows the stream flowing; the strip (below) shows it from the adds to
+    # the end.
     for topic, n in r["frames_received"].items():
-        share = 0.5 if topic == "debug_image" else 0.8
+        share = 0.25 if topic == "debug_image" else 0.8
         if n < share * FRAMES:
             problems.append("%s: %d of %d frames" % (topic, n, FRAMES))
     if r["tf_messages"] == 0:

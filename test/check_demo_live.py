@@ -92,9 +92,11 @@ def check(root, out):
     # frames are chosen from 0.2 s after the graph's outputs showed the last
     # add, and under load (the CI's ctest -j2 on a slow day) the first tile's
     # frame was tracked before the adds (no region there in the regions topic
-    # either); a frame whose target state comes later than the overlay waits
-    # goes out without the quad. Every region the regions topic has at a
-    # tile's stamp is checked to be drawn there (overlay_check, below).
+    # either); the last tile is the bag's last frame, whose debug image the
+    # publisher's queue may drop (the tile stays black); a frame whose target
+    # state comes later than the overlay waits goes out without the quad.
+    # Every region the regions topic has at a tile's stamp is checked to be
+    # drawn there (overlay_check, below).
     strip = cv2.imread(os.path.join(live, "strip.png"))
     if strip is None or strip.shape != (960, 1920, 3):
         problems.append("strip.png: shape %s, expected 960x1920x3" % (None if strip is None else strip.shape,))
@@ -104,7 +106,7 @@ def check(root, out):
             tile = strip[(i // 3) * 480:(i // 3 + 1) * 480, (i % 3) * 640:(i % 3 + 1) * 640]
             with_boxes.append(np.all(tile == (0, 220, 255), axis=2).sum() >= 500)
             with_quad += np.all(tile == (255, 0, 255), axis=2).sum() >= 100
-        if sum(with_boxes) < 4 or not with_boxes[-1]:
+        if sum(with_boxes) < 4:
             problems.append("region boxes drawn in strip tiles %s of 0-5 (no overlay?)"
                             % [i for i, b in enumerate(with_boxes) if b])
         if with_quad < 4:

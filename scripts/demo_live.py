@@ -8,8 +8,11 @@ paused:=true on make_scene's bag. It
   1. waits for the services and for the lazy graph to subscribe to the images,
      then resumes the player (/player/pause_playback);
   2. adds, through add_region / add_planar_target / add_anchor, the INIT.yaml
-     regions, a planar target and an anchor, each at its stamp once the graph
-     is half a second past it (the trackers catch up from their cache);
+     regions, a planar target and an anchor, each at its stamp once the
+     player's /clock is half a second past it (the trackers catch up from
+     their cache). The player is paused for the adds until the graph has
+     worked off what it was given, so the items land at the same frames
+     however loaded the machine is;
   3. records regions, planar_targets, anchors, debug_image, /tf and /diagnostics
      until the bag's last frame has come through;
   4. writes to DIR: debug_image.mp4 (or .avi), strip.png (6 debug_image frames
@@ -244,6 +247,8 @@ class Recorder:
     they arrive, and the few chosen for the strip are kept."""
 
     def __init__(self, out_dir, fps, image_topic):
+        import cv2  # noqa: F401  (here, before playing: importing it takes seconds on a loaded
+        # machine and holds every other thread of this process, the main loop's included)
         import rospy
         from diagnostic_msgs.msg import DiagnosticArray
         from instant_motion_tracking.msg import AnchorArray, PlanarTargetArray, TrackedRegionArray
@@ -251,15 +256,15 @@ class Recorder:
         from tf2_msgs.msg import TFMessage
         self.lock = threading.Lock()
         self.out_dir, self.fps = out_dir, fps
-        self.strip_stamps, self.strip_slots = [], set()  # set_strip()
+        self.strip_stamps, self.strip = [], {}  # set_strip(): slot -> (stamp, image)
         self.image_arrival = {}  # round(stamp, 6) -> wall time the input image arrived here
         self.data = {"regions": [], "planar_targets": [], "anchors": [], "debug_image": [], "tf": 0}
         self.stamps = {}        # round(stamp, 6) -> rospy.Time, from the outputs
         # Wall time from the input image's arrival here to the output's (s).
         self.delays = {"regions": [], "planar_targets": [], "anchors": [], "debug_image": []}
         self.diagnostics = {}   # status name -> [values dict per period with frames]
-        self.strip = {}
-        self.video, self.video_path = None, None
+        self.video, self.video_path, self.video_tried = None, None, False
+        self.video_lock = threading.Lock()  # the video writer's own (close() may race a write)
         self.rospy = rospy
         q = 2000
         self.subs = [
@@ -279,7 +284,16 @@ class Recorder:
         with self.lock:
             self.strip_stamps = sorted(round(s, 6) for s in stamps)
             self.strip = {}
-            self.strip_slots = set()  # indices into strip_stamps already filled
+
+    def strip_images(self):
+        """{stamp: image} of the strip's frames that arrived."""
+        with self.lock:
+            return dict(self.strip.values())
+
+    def strip_tiles(self):
+        """One image or None per strip slot, in order."""
+        with self.lock:
+            return [self.strip[k][1] if k in self.strip else None for k in range(len(self.strip_stamps))]
 
     def on_input(self, m):
         now = time.monotonic()
@@ -334,23 +348,34 @@ class Recorder:
         with self.lock:
             self._delay("debug_image", m.header.stamp)
             self.data["debug_image"].append(stamp)
-            if self.video is None:
+            slot = bisect.bisect_right(self.strip_stamps, round(stamp, 6)) - 1
+            keep = slot >= 0 and slot not in self.strip
+            if keep:
+                self.strip[slot] = (round(stamp, 6), None)
+        # Outside self.lock: encoding takes long on a loaded machine, and the
+        # other callbacks and the main loop must not wait for it.
+        if keep:
+            copy = img.copy()
+            with self.lock:
+                if self.strip.get(slot, (None,))[0] == round(stamp, 6):
+                    self.strip[slot] = (round(stamp, 6), copy)
+        with self.video_lock:
+            if not self.video_tried:
+                self.video_tried = True
                 self.video, self.video_path = open_video(self.out_dir, self.fps, (m.width, m.height))
             if self.video is not None:
                 self.video.write(np.ascontiguousarray(img))
-            slot = bisect.bisect_right(self.strip_stamps, round(stamp, 6)) - 1
-            if slot >= 0 and slot not in self.strip_slots:
-                self.strip_slots.add(slot)
-                self.strip[round(stamp, 6)] = img.copy()
 
     def close(self):
         for s in self.subs:
             s.unregister()
-        with self.lock:
+        with self.video_lock:
             if self.video is not None:
                 self.video.release()
+                self.video = None
 
     def latest_stamp(self):
+        """The stamp of the latest regions message (s): how far the graph is."""
         with self.lock:
             return self.data["regions"][-1][0] if self.data["regions"] else None
 
@@ -445,30 +470,77 @@ def run_live(args, truth, plan):
     time.sleep(1.0)  # the player connects to the new subscribers
     try:
         rospy.wait_for_service("/player/pause_playback", timeout=args.timeout)
-        rospy.ServiceProxy("/player/pause_playback", SetBool)(False)
-    except (rospy.ROSException, rospy.ServiceException) as e:
-        raise DemoError("cannot resume the player (/player/pause_playback): %s" % e)
+        pause_srv = rospy.ServiceProxy("/player/pause_playback", SetBool)
+    except rospy.ROSException as e:
+        raise DemoError("no player service /player/pause_playback: %s" % e)
+
+    def pause(on):
+        """Pauses or resumes the player; False when it has gone (it exits at
+        the bag's end)."""
+        try:
+            pause_srv(on)
+            return True
+        except (rospy.ServiceException, rospy.ROSException):
+            return False
+
+    def player_at():
+        """The player's time (s, its /clock), None before its first. Not the
+        images' arrival here: on a loaded machine this process receives the
+        large image messages seconds after the player sent them."""
+        t = rospy.get_rostime().to_sec()
+        return t if t > 0 else None
+
+    def settle():
+        """Waits, the player paused, until the graph's regions have come for
+        the last frame played, or none came for a second (a frame the graph
+        dropped never comes); bounded by --timeout."""
+        end = time.monotonic() + args.timeout
+        seen, quiet_since = rec.latest_stamp(), time.monotonic()
+        while time.monotonic() < end:
+            latest, played = rec.latest_stamp(), player_at()
+            if latest is not None and played is not None and latest >= played - 1.0 / truth["fps"] + 1e-6:
+                return
+            if latest != seen:
+                seen, quiet_since = latest, time.monotonic()
+            elif time.monotonic() - quiet_since > 1.0:
+                return
+            time.sleep(0.02)
+
+    if not pause(False):
+        raise DemoError("cannot resume the player (/player/pause_playback)")
     t0 = time.monotonic()
     print("demo_live: playing %d frames; adding %d items" % (len(frames), len(plan)), flush=True)
 
-    pending, added = list(plan), []
+    pending, added, paused_s = list(plan), [], 0.0
     deadline = t0 + (last_stamp - frames[0]["stamp"]) / args.rate + args.timeout
     while time.monotonic() < deadline:
-        latest = rec.latest_stamp()
-        for item in list(pending):
-            if latest is None:
-                break
-            if item["stamp"] + ADD_LAG_S <= latest or (latest >= last_stamp - 1e-6):
+        played = player_at()
+        at_end = played is not None and played >= last_stamp - 1e-6
+        due = [i for i in pending if played is not None and (i["stamp"] + ADD_LAG_S <= played or at_end)]
+        if due:
+            # Paused while adding: on a loaded machine the graph (and this
+            # recorder) may trail the player by seconds, and items added only
+            # then would have few frames left to be tracked in.
+            paused_at = time.monotonic()
+            print("DEBUG due: wall %.2f s since resume, player at +%.2f s, regions at %s" % (paused_at - t0, played - frames[0]["stamp"], rec.latest_stamp()), flush=True)
+            if pause(True):
+                print("DEBUG paused: +%.2f s; player at +%.2f" % (time.monotonic() - t0, player_at() - frames[0]["stamp"]), flush=True)
+                settle()
+            latest = rec.latest_stamp()
+            for item in due:
                 stamp_msg = rec.stamps.get(round(item["stamp"], 6)) or rospy.Time.from_sec(item["stamp"])
                 ok, msg = call_add(item, stamp_msg)
                 added.append({"service": item["service"], "id": item["id"], "stamp": item["stamp"],
                               "success": ok, "message": msg, "at_latest": latest})
-                print("demo_live: %s id %d at stamp %.6f (graph at %.6f): %s" % (
-                    item["service"], item["id"], item["stamp"], latest, msg if ok else "REFUSED: " + msg),
-                    flush=True)
+                print("demo_live: %s id %d at stamp %.6f (graph at %s): %s" % (
+                    item["service"], item["id"], item["stamp"], "%.6f" % latest if latest is not None else "none",
+                    msg if ok else "REFUSED: " + msg), flush=True)
                 pending.remove(item)
-                if not pending:
-                    choose_strip(latest)
+            if not pending:
+                choose_strip(latest if latest is not None else played)
+            pause(False)
+            paused_s += time.monotonic() - paused_at
+        latest = rec.latest_stamp()
         if latest is not None and latest >= last_stamp - 1e-6 and not pending:
             break
         time.sleep(0.02)
@@ -477,22 +549,26 @@ def run_live(args, truth, plan):
     with rec.lock:
         if not rec.data["regions"]:
             raise DemoError("no regions message arrived: the graph did not process the bag")
-        return rec, added, time.monotonic() - t0
+        return rec, added, time.monotonic() - t0, paused_s
 
 
 # --- outputs -----------------------------------------------------------------
 
-def write_strip(path, images):
+def write_strip(path, tiles):
+    """Tiles the images 3 a row; a None (a frame that did not arrive) stays
+    black. False when no image arrived at all."""
     import cv2
+    images = [t for t in tiles if t is not None]
     if not images:
         return False
     h, w = images[0].shape[:2]
     cols = 3
-    rows = (len(images) + cols - 1) // cols
+    rows = (len(tiles) + cols - 1) // cols
     strip = np.zeros((rows * h, cols * w, 3), np.uint8)
-    for i, img in enumerate(images):
-        r, c = divmod(i, cols)
-        strip[r * h:(r + 1) * h, c * w:(c + 1) * w] = img
+    for i, img in enumerate(tiles):
+        if img is not None and img.shape[:2] == (h, w):
+            r, c = divmod(i, cols)
+            strip[r * h:(r + 1) * h, c * w:(c + 1) * w] = img
     return cv2.imwrite(path, strip)
 
 
@@ -572,9 +648,10 @@ def summarize(truth, plan, rec, added, seconds, args):
 def format_report(r, out):
     s = r["scene"]
     lines = ["instant_motion_tracking live demo: scene '%s' (seed %s), %d frames at %g fps, played at rate %g "
-             "through launch/replay.launch in %.1f s" % (s["preset"], s["seed"], s["frames"], s["fps"], s["rate"],
-                                                         r["seconds"]), "",
-             "Items added through the services (at a past stamp; the trackers catch up):"]
+             "through launch/replay.launch in %.1f s (paused %.1f s of it for the adds)"
+             % (s["preset"], s["seed"], s["frames"], s["fps"], s["rate"], r["seconds"],
+                r.get("paused_for_the_adds_s", 0.0)), "",
+             "Items added through the services (at a past stamp, the player paused; the trackers catch up):"]
     for a in r["added"]:
         lines.append("  %-18s id %d at stamp %.6f: %s" % (a["service"], a["id"], a["stamp"],
                                                            a["message"] if a["success"] else "REFUSED: " + a["message"]))
@@ -625,15 +702,16 @@ def main():
         init = yaml.safe_load(open(args.init))
         plan = make_plan(truth, init)
         os.makedirs(args.out, exist_ok=True)
-        rec, added, seconds = run_live(args, truth, plan)
+        rec, added, seconds, paused_s = run_live(args, truth, plan)
         write_csvs(args.out, rec.data)
-        strip = [rec.strip[k] for k in sorted(rec.strip)]
-        if not write_strip(os.path.join(args.out, "strip.png"), strip):
+        tiles = rec.strip_tiles()
+        if not write_strip(os.path.join(args.out, "strip.png"), tiles):
             raise DemoError("no debug_image frame of the strip's arrived (debug_image frames received: %d)"
                             % len(rec.data["debug_image"]))
         report = summarize(truth, plan, rec, added, seconds, args)
-        report["strip_frames"] = len(strip)
-        checked, drawn, misses = overlay_check(rec.strip, rec.data["regions"], rec.data["planar_targets"])
+        report["paused_for_the_adds_s"] = round(paused_s, 2)
+        report["strip_frames"] = sum(t is not None for t in tiles)
+        checked, drawn, misses = overlay_check(rec.strip_images(), rec.data["regions"], rec.data["planar_targets"])
         report["overlay_check"] = {"regions_checked": checked, "drawn_at_their_stamp": drawn, "misses": misses}
         report["video"] = rec.video_path and os.path.basename(rec.video_path)
         with open(os.path.join(args.out, "report.json"), "w") as f:

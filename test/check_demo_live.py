@@ -60,9 +60,10 @@ def check(root, out):
     # encoding video on a loaded machine) loses frames at the publisher's
     # queue by design, never holding the trackers back. How many it loses
     # follows the machine: 67 of 120 and 45 of 120 under the CI's ctest -j2
-    # on 2026-11-29, a day its build took 9 min instead of 5. A quarter still
-    # shows the stream flowing; the strip (below) shows it from the adds to
-    # the end.
+    # on 2026-11-29, a day its build took 9 min instead of 5; 56-95 of 120
+    # with four busy loops on this 2-core machine on 2026-12-01. A quarter
+    # still shows the stream flowing; the strip (below) shows it from the
+    # adds to the end.
     for topic, n in r["frames_received"].items():
         share = 0.25 if topic == "debug_image" else 0.8
         if n < share * FRAMES:
@@ -87,30 +88,39 @@ def check(root, out):
         problems.append("no latency measured")
 
     # The strip: six 640x480 debug images, 3 x 2, with the overlay drawn by the
-    # live MotionAnalysisNodelet: region boxes (yellow, BGR 0,220,255) and the
-    # planar-target quad (magenta) in most tiles. Not in all: the strip's
-    # frames are chosen from 0.2 s after the graph's outputs showed the last
-    # add, and under load (the CI's ctest -j2 on a slow day) the first tile's
-    # frame was tracked before the adds (no region there in the regions topic
-    # either); the last tile is the bag's last frame, whose debug image the
-    # publisher's queue may drop (the tile stays black); a frame whose target
-    # state comes later than the overlay waits goes out without the quad.
-    # Every region the regions topic has at a tile's stamp is checked to be
-    # drawn there (overlay_check, below).
+    # live MotionAnalysisNodelet: region boxes (yellow, BGR 0,220,255) in every
+    # tile that arrived and the planar-target quad (magenta) in all but one.
+    # The strip's frames are chosen from 0.2 s after the graph's stamp at the
+    # last add, which demo_live.py makes with the player paused, so every
+    # tile's frame is tracked after the adds. A tile takes the first debug
+    # image of its span of about 15 frames (the last tile: the bag's last
+    # frame alone); under load the publisher's queue may drop a whole span
+    # (tiles 1 and 2 stayed black with four busy loops on this machine on
+    # 2026-12-01), so only three tiles must arrive. A frame whose target state
+    # comes later than the overlay waits goes out without the quad. Every
+    # region the regions topic has at a tile's stamp is checked to be drawn
+    # there (overlay_check, below).
     strip = cv2.imread(os.path.join(live, "strip.png"))
     if strip is None or strip.shape != (960, 1920, 3):
         problems.append("strip.png: shape %s, expected 960x1920x3" % (None if strip is None else strip.shape,))
     else:
-        with_quad, with_boxes = 0, []
+        arrived, with_quad, without_boxes = [], 0, []
         for i in range(6):
             tile = strip[(i // 3) * 480:(i // 3 + 1) * 480, (i % 3) * 640:(i % 3 + 1) * 640]
-            with_boxes.append(np.all(tile == (0, 220, 255), axis=2).sum() >= 500)
+            if not tile.any():
+                continue  # never arrived: left black
+            arrived.append(i)
+            if np.all(tile == (0, 220, 255), axis=2).sum() < 500:
+                without_boxes.append(i)
             with_quad += np.all(tile == (255, 0, 255), axis=2).sum() >= 100
-        if sum(with_boxes) < 4:
-            problems.append("region boxes drawn in strip tiles %s of 0-5 (no overlay?)"
-                            % [i for i, b in enumerate(with_boxes) if b])
-        if with_quad < 4:
-            problems.append("the planar target's quad is drawn in %d of 6 strip tiles" % with_quad)
+        if len(arrived) < 3:
+            problems.append("strip tiles arrived: %s of 0-5 (the debug_image stream stalled?)" % arrived)
+        if without_boxes:
+            problems.append("no region boxes drawn in strip tiles %s of those arrived, %s (no overlay?)"
+                            % (without_boxes, arrived))
+        if arrived and with_quad < len(arrived) - 1:
+            problems.append("the planar target's quad is drawn in %d of the %d strip tiles that arrived"
+                            % (with_quad, len(arrived)))
     # ... and each tracked region's box drawn at the place the regions topic
     # gives for the debug image's own stamp (the nodelet waits for the
     # trackers' states of each frame); one frame late would miss moving cards.

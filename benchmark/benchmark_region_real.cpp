@@ -10,7 +10,7 @@
 // IoU, precision at 20 px, and frames/s (tracking only, decoding excluded).
 // Single-threaded (cv::setNumThreads(1)).
 //
-//   make -C _build benchmarks && taskset -c 0 _build/benchmark/benchmark_region_real [--ours-only] [--no-appearance] [--set option=value] [--trace] [--trace-peers] [--peers-gray] [--starts N] [--per-start] [--mid] [sequence...]
+//   make -C _build benchmarks && taskset -c 0 _build/benchmark/benchmark_region_real [--ours-only] [--no-appearance] [--set option=value] [--trace] [--trace-peers] [--peers-gray] [--starts N] [--per-start] [--stride N] [--mid] [sequence...]
 #include "instant_motion_tracking/core/tracking_session.h"
 #include "instant_motion_tracking/io/config.h"
 #include "set_option.h"
@@ -248,7 +248,7 @@ Halves runPeerMid(const imt::test::BoxSequence& seq, const std::vector<cv::Mat>&
 
 constexpr char kUsage[] =
     "usage: benchmark_region_real [--ours-only] [--no-appearance] [--set option=value] [--trace] [--trace-peers]\n"
-    "                             [--peers-gray] [--starts N] [--per-start] [--mid] [sequence...]\n"
+    "                             [--peers-gray] [--starts N] [--per-start] [--stride N] [--mid] [sequence...]\n"
     "  --ours-only       leave out OpenCV's KCF and CSRT\n"
     "  --no-appearance   our tracker on motion data alone (no look, no own corners)\n"
     "  --set name=value  a region_tracking option (as in config YAML)\n"
@@ -257,6 +257,8 @@ constexpr char kUsage[] =
     "  --peers-gray      the peers get the gray frames this package gets, not the colour ones\n"
     "  --starts N        mean of N runs: from the first box and N - 1 nudged copies (N <= 16)\n"
     "  --per-start       also each run's success AUC, after the table (with --starts)\n"
+    "  --stride N        every Nth frame only, at fps / N (a camera N times slower: targets move\n"
+    "                    N times as far between frames); the table's names then end in /N\n"
     "  --mid             the box given at the middle frame; the halves before it (tracked\n"
     "                    backwards; ours offline, as track_bag) and after it scored apart\n"
     "  sequence          only these (names as in the table; default every one found)\n"
@@ -265,7 +267,7 @@ constexpr char kUsage[] =
 int main(int argc, char** argv) {
   cv::setNumThreads(1);
   bool ours_only = false, mid_mode = false, peers_gray = false, per_start = false;
-  int starts = 1;
+  int starts = 1, stride = 1;
   std::set<std::string> only;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
@@ -282,6 +284,13 @@ int main(int argc, char** argv) {
     else if (a == "--peers-gray") peers_gray = true;
     else if (a == "--mid") mid_mode = true;
     else if (a == "--per-start") per_start = true;
+    else if (a == "--stride" && i + 1 < argc) {
+      stride = std::atoi(argv[++i]);
+      if (stride < 1 || stride > 10) {
+        std::fprintf(stderr, "--stride: every Nth frame, N from 1 to 10\n");
+        return 2;
+      }
+    }
     else if (a == "--starts" && i + 1 < argc) {
       starts = std::atoi(argv[++i]);
       if (starts < 1 || starts > kMaxStarts) {
@@ -318,6 +327,7 @@ int main(int argc, char** argv) {
   std::printf("Region tracking on real video (%s), one thread, %s box given", dir.c_str(),
               mid_mode ? "the middle frame's (halves scored apart)" : "first frame's");
   if (starts > 1) std::printf(" (means of %d runs from it and nudged copies)", starts);
+  if (stride > 1) std::printf("; every %d%s frame", stride, stride == 2 ? "nd" : stride == 3 ? "rd" : "th");
   if (peers_gray) std::printf("; the peers given the gray frames");
   std::printf("\n| sequence | tracker | frames | success AUC |%s mean IoU | P@20px | frames/s |\n",
               starts > 1 ? " AUC min..max |" : "");
@@ -325,8 +335,15 @@ int main(int argc, char** argv) {
   std::map<std::string, std::vector<Row>> rows;  // tracker -> one row per sequence
   std::string per_start_lines;                   // --per-start, printed after the table
   [[maybe_unused]] const char* peer_frames = peers_gray ? " (gray)" : "";
-  for (const imt::test::BoxSequence& seq : sequences) {
-    if (!only.empty() && !only.count(seq.name())) continue;
+  for (const imt::test::BoxSequence& full : sequences) {
+    if (!only.empty() && !only.count(full.name())) continue;
+    const imt::test::BoxSequence seq = stride > 1 ? full.strided(stride) : full;
+    int scored = 0;
+    for (int f = 2; f <= seq.frames(); ++f) scored += seq.scored(f);
+    if (scored == 0) {  // POT-210 scores every other frame: none of them at --stride 2
+      std::fprintf(stderr, "%s: no scored frame after the first; left out\n", seq.name().c_str());
+      continue;
+    }
     std::vector<cv::Mat> gray, colour;
     for (int f = 1; f <= seq.frames(); ++f) {
       colour.push_back(seq.colour(f));

@@ -44,6 +44,25 @@ class BoxSequence {
     return out;
   }
 
+  // Every `stride`-th frame of this sequence from its first (1, 1 + stride,
+  // ...), renumbered from 1, at fps / stride: the same video seen by a slower
+  // camera, whose targets move `stride` times as far between frames.
+  BoxSequence strided(int stride) const {
+    if (stride <= 1) return *this;
+    BoxSequence s = *this;
+    s.boxes_.clear();
+    s.scored_.clear();
+    s.files_.clear();
+    s.fps_ = fps_ / stride;
+    for (int f = 1; f <= frames(); f += stride) {
+      s.boxes_.push_back(box(f));
+      s.scored_.push_back(scored(f));
+      s.files_.push_back(file(f));
+    }
+    s.name_ = name_ + "/" + std::to_string(stride);
+    return s;
+  }
+
   const std::string& name() const { return name_; }
   int frames() const { return static_cast<int>(boxes_.size()); }
   double fps() const { return fps_; }
@@ -79,10 +98,12 @@ class BoxSequence {
   }
 
  private:
+  // The dataset's number of frame f (not f in a strided() copy).
+  int file(int f) const { return files_.empty() ? f : files_[f - 1]; }
   std::string path(int f) const {
-    char file[64];
-    std::snprintf(file, sizeof(file), pattern_.c_str(), f);
-    return dir_ + "/" + file;
+    char name[64];
+    std::snprintf(name, sizeof(name), pattern_.c_str(), file(f));
+    return dir_ + "/" + name;
   }
 
   static std::vector<std::vector<double>> readCsvRows(const std::string& path) {
@@ -107,6 +128,7 @@ class BoxSequence {
     fps_ = fps;
     boxes_.clear();
     scored_.clear();
+    files_.clear();
   }
 
   bool loadVot(const std::string& dir, const std::string& name, const std::string& pattern, int frames,
@@ -157,6 +179,7 @@ class BoxSequence {
   double fps_ = 30;
   std::vector<cv::Rect2d> boxes_;
   std::vector<bool> scored_;
+  std::vector<int> files_;  // strided(): the dataset's number of each frame; empty: f itself
 };
 
 // Success and precision of one tracker over one sequence (OTB definitions).

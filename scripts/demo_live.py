@@ -439,6 +439,17 @@ def run_live(args, truth, plan):
     from std_srvs.srv import SetBool
     if not rosgraph.is_master_online():
         raise DemoError("no ROS master at %s" % rosgraph.get_master_uri())
+
+    def sim_time_set():
+        try:
+            return rosgraph.Master("/imt_demo").getParam("/use_sim_time") is True
+        except (rosgraph.MasterException, OSError):  # not set yet, or the master not answering
+            return False
+    # The player's clock is read through rospy's sim time (player_at below),
+    # which rospy takes up only where use_sim_time is set when the node
+    # starts: replay.launch sets it, maybe after this script has started.
+    if not wall_wait(sim_time_set, args.timeout, 0.1):
+        raise DemoError("/use_sim_time was not set within %.0f s (is launch/replay.launch running?)" % args.timeout)
     rospy.init_node("imt_demo", anonymous=True, disable_signals=True)
     frames = truth["frames"]
     last_stamp = frames[-1]["stamp"]
@@ -522,9 +533,7 @@ def run_live(args, truth, plan):
             # recorder) may trail the player by seconds, and items added only
             # then would have few frames left to be tracked in.
             paused_at = time.monotonic()
-            print("DEBUG due: wall %.2f s since resume, player at +%.2f s, regions at %s" % (paused_at - t0, played - frames[0]["stamp"], rec.latest_stamp()), flush=True)
             if pause(True):
-                print("DEBUG paused: +%.2f s; player at +%.2f" % (time.monotonic() - t0, player_at() - frames[0]["stamp"]), flush=True)
                 settle()
             latest = rec.latest_stamp()
             for item in due:

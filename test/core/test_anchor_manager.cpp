@@ -5,12 +5,14 @@
 #include "instant_motion_tracking/core/anchor/anchor_manager.h"
 #include "instant_motion_tracking/core/motion/motion_analysis.h"
 #include "instant_motion_tracking/core/options.h"
+#include "instant_motion_tracking/core/tracking_session.h"
 #include "instant_motion_tracking/sim/scene.h"
 
 #include "scene_test_util.h"
 
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <cstdlib>
 #include <functional>
 #include <map>
@@ -877,6 +879,71 @@ TEST(AnchorManager, AnchorOnAMovingCardFollowsIt) {
   ASSERT_GT(err.size(), 60u);
   EXPECT_LE(median(err), 3.0);  // the in-view bar (measured 1.0 px)
   EXPECT_GT(median(wall), 20.0);  // the card does move relative to the wall
+}
+
+// An anchor tapped on the wall of the cards scene, clear of the cards (the
+// point scripts/demo_live.py places its anchor at), holds the wall point
+// under the tap: its pixel is scored against the wall's true motion from the
+// tap on every frame where the point is in view and no card is within 30 px
+// of it (one passing in front would hide it), as the demo scores it. The
+// whole pipeline, live (the regions' look needs the session's frames).
+TEST(AnchorManager, AnchorOnTheWallHoldsItsPoint) {
+  auto scene = test::make(test::preset("cards"));
+  ASSERT_TRUE(scene);
+  TrackingSession session(PipelineOptions(), TrackingSession::Mode::kLive);
+  session.setCameraInfo(scene->intrinsics());
+  ASSERT_TRUE(session.setRotationCamImu(scene->options().q_cam_imu));
+  const std::vector<ImuSample> imu = scene->imuSamples();
+  size_t next_imu = 0;
+  const cv::Size image = scene->renderFrame(0).size();
+  const auto clear = [&](const FrameTruth& f, const cv::Point2d& p) {
+    if (p.x < 10 || p.y < 10 || p.x >= image.width - 10 || p.y >= image.height - 10) return false;
+    for (const auto& r : f.regions) {
+      const cv::Rect2d& b = r.box_unclipped;
+      if (std::hypot(std::max({b.x - p.x, 0.0, p.x - b.br().x}), std::max({b.y - p.y, 0.0, p.y - b.br().y})) < 30)
+        return false;
+    }
+    return true;
+  };
+  std::map<double, cv::Point2d> wall;  // stamp -> the wall point under the tap, where clear
+  cv::Point2d wall_pt(80.5, 300.5);
+  std::vector<double> err;
+  std::string e;
+  for (int i = 0; i < scene->frameCount(); ++i) {
+    const double t = scene->frameStamp(i);
+    const FrameTruth truth = scene->frameTruth(i);
+    if (i > 0) {
+      ASSERT_TRUE(truth.background_homography.has_value());
+      const Eigen::Vector3d p = *truth.background_homography * Eigen::Vector3d(wall_pt.x, wall_pt.y, 1);
+      wall_pt = cv::Point2d(p.x() / p.z(), p.y() / p.z());
+      if (clear(truth, wall_pt)) wall[t] = wall_pt;
+    }
+    while (next_imu < imu.size() && imu[next_imu].stamp <= t + 0.006) session.addImu(imu[next_imu++]);
+    session.analyze(scene->renderFrame(i), t);
+    if (i == 0) {
+      ASSERT_TRUE(clear(truth, wall_pt));
+      session.takeResults();
+      uint32_t id;
+      ASSERT_TRUE(session.addAnchor(1, t, wall_pt, 0.0, &id, &e)) << e;
+      continue;
+    }
+    for (const FrameResult& fr : session.takeResults()) {
+      const auto w = wall.find(fr.motion.stamp);
+      if (w == wall.end()) continue;
+      ASSERT_EQ(fr.anchors.size(), 1u);
+      err.push_back(cv::norm(fr.anchors[0].pixel - w->second));
+    }
+  }
+  std::sort(err.begin(), err.end());
+  const double p95 = err.empty() ? 0 : err[static_cast<size_t>(0.95 * (err.size() - 1))];
+  std::printf("anchor on the wall: pixel error median %.2f px, p95 %.2f px over %zu frames\n", median(err), p95,
+              err.size());
+  ASSERT_GT(err.size(), 150u);
+  // Measured 0.32 / 0.64 px (2026-12-01). Before a region still against the
+  // background and matched strongly by its template was held from its
+  // filter's moves: 2.11 / 2.81 px, drifting 2 px in 6 s.
+  EXPECT_LE(median(err), 0.6);
+  EXPECT_LE(p95, 1.2);
 }
 
 }  // namespace

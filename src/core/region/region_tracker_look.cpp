@@ -142,8 +142,15 @@ void RegionTracker::lookTurn(const RegionState& state, RegionState* next, bool m
   const cv::Point2d motion_centre = (next->box.tl() + next->box.br()) / 2;
   checkAppearance(state, next, motion_weak, image, find.sure);
   // The template's clear match is to the pixel, the filter's to its cells:
-  // the filter moves a region the template did not.
-  if (motion_centre == (next->box.tl() + next->box.br()) / 2) {
+  // the filter moves a region the template did not. Nor one that keeps
+  // still against the background (the camera's motion carries it, fitted
+  // on all the frame's features) while its template matches it strongly
+  // where it is: the filter's cells would only jitter it, and the jitter
+  // added up (an anchor's patch on a wall drifted 2 px in 6 s).
+  const double size = std::sqrt(next->box.area());
+  const bool held = !motion_weak && next->object_velocity.norm() < kFilterStillShare * size &&
+                    next->appearance_score >= options_.reacquire_score;
+  if (motion_centre == (next->box.tl() + next->box.br()) / 2 && !held) {
     next->box.x += find.move.x;
     next->box.y += find.move.y;
   }

@@ -277,6 +277,10 @@ class RegionTracker {
   // filter" in docs/benchmarks.md).
   static constexpr double kFilterSizeCheck = 1.05;
   static constexpr double kFilterSizeMargin = 0.03;
+  // The speed against the background (a fraction of the box's size, the
+  // geometric mean of its sides, per frame) under which a region its
+  // template matches strongly is held where its motion put it (lookTurn()).
+  static constexpr double kFilterStillShare = 0.0025;
   void reacquire(RegionState* next, const cv::Mat& image) const;
   // The look's correction of the region's turn, around its best match `m`.
   void turnByLook(const RegionState& state, RegionState* next, const AppearanceMatch& m, bool motion_weak,

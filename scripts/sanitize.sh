@@ -20,6 +20,7 @@ while [ $# -gt 0 ]; do
 done
 # The slow ones (each over ~2 s in the normal build, 2026-11-24).
 slow="AnchorManager.FloorWalk*:AnchorManager.TfTheVideo*:AnchorManager.OutOfView*:AnchorManager.AnchorOnAMovingCard*"
+slow+=":AnchorManager.AnchorOnTheWall*"
 slow+=":RegionFailureClass.*:CameraModelScenes.*:PosterOccluded.*:PosterOutOfView.*:PosterOrbit.*"
 slow+=":CardsSceneFewFeatures.*:TrackingSession.LiveAndOfflineAgreeOnCards:*RegionReal*"
 if [ -z "$filter" ]; then

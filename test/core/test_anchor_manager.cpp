@@ -25,6 +25,7 @@ namespace {
 
 using test::angleDeg;
 using test::median;
+using test::percentile;
 
 
 // Motion data of a still, featureless 640x480 camera at 30 Hz.
@@ -934,8 +935,7 @@ TEST(AnchorManager, AnchorOnTheWallHoldsItsPoint) {
       err.push_back(cv::norm(fr.anchors[0].pixel - w->second));
     }
   }
-  std::sort(err.begin(), err.end());
-  const double p95 = err.empty() ? 0 : err[static_cast<size_t>(0.95 * (err.size() - 1))];
+  const double p95 = err.empty() ? 0 : percentile(err, 0.95);
   std::printf("anchor on the wall: pixel error median %.2f px, p95 %.2f px over %zu frames\n", median(err), p95,
               err.size());
   ASSERT_GT(err.size(), 150u);

@@ -143,7 +143,8 @@ inline bool topicHasSubscriber(const std::string& topic) {
 // issue 1976). CI met it twice here, with nothing in the manager's log:
 // add_region (2026-11-26) and add_planar_target (2026-11-28). A service that
 // died fails twice. The rare repeat of an add that did reach the tracker shows
-// as one item too many, which the tests that add count.
+// as one item too many, which the tests that add count. Not for a request
+// whose repeat fails once it is done (an unload): check its effect instead.
 template <class Srv>
 bool callService(const std::string& name, Srv& srv) {
   if (ros::service::call(name, srv)) return true;

@@ -20,6 +20,14 @@ loaded machine fills the queues and lifts a minute's peak by as much, a leak
 lifts the whole minute), or graph_watchdog reported a nodelet that is not
 loaded (or the manager died).
 
+A minute over that bound is not the end of the run: it goes on a minute more
+(twice at most), and fails when the last minute is still over. A graph that
+fell behind its input has its queues full (50 frames a subscriber, ~0.9 MB
+each at 640x480) and its memory up by tens of MB for as long as it stays
+behind: CI met +28% in a minute of a loaded machine whose processing took 2.5
+times as long (2026-12-01), and a run at 5 times the bag's rate stays 10-20%
+over one at twice. A leak does not go away in the minutes after; a stall does.
+
   soak_monitor.py --minutes M --truth T.json --init INIT.yaml --manager-pid PID
 """
 import argparse
@@ -37,6 +45,7 @@ from demo_live import ADD_LAG_S, call_add, make_plan  # noqa: E402
 OUTPUTS = ["motion_data", "regions", "planar_targets", "anchors"]
 NODELETS = ["motion_analysis", "region_tracker", "planar_targets", "anchor_tracker"]
 RSS_GROWTH = 0.20  # allowed growth of the manager's memory after the second minute
+EXTRA_MINUTES = 2  # how many more minutes a run over that bound goes on for, to see it persist
 
 
 def rss_mb(pid):
@@ -139,13 +148,14 @@ def main():
     mon = Monitor(plan)
     failures = []
     rss2 = None
+    minutes, over = args.minutes, None  # over: the last minute's excess, if it was over the bound
     last = {}
     t0 = time.monotonic()
     minute = 0
     print("| minute | frames in (dropped) | motion_data | regions | planar_targets | anchors | manager RSS peak / median (MB) "
           "| processing mean/max (ms): motion, regions, planar, anchors | resets | watchdog |", flush=True)
     print("|---|---|---|---|---|---|---|---|---|---|", flush=True)
-    while minute < args.minutes:
+    while minute < minutes:
         next_at = t0 + 60.0 * (minute + 1)
         # The RSS sampled each second: the caches fill and empty with each
         # loop of the bag, so one sample is as much phase as growth.
@@ -187,15 +197,22 @@ def main():
             failures.append("minute %d: graph_watchdog: %s" % (minute, wd))
         if minute == 2:
             rss2 = rss
-        elif rss2 and rss > (1 + RSS_GROWTH) * rss2:
-            failures.append("minute %d: manager RSS median %.1f MB, more than %d%% over minute 2's %.1f MB" % (
-                minute, rss, RSS_GROWTH * 100, rss2))
+        over = None
+        if minute > 2 and rss > (1 + RSS_GROWTH) * rss2:
+            over = "minute %d: manager RSS median %.1f MB, more than %d%% over minute 2's %.1f MB" % (
+                minute, rss, RSS_GROWTH * 100, rss2)
+            if minute == minutes and minutes < args.minutes + EXTRA_MINUTES:
+                minutes += 1
+                print("soak_monitor: %s; one minute more, to see whether it stays" % over, flush=True)
         if failures:
             break
+    if over and not failures:
+        failures.append(over + (" (still over after %d minutes more)" % (minutes - args.minutes)
+                                if minutes > args.minutes else ""))
     for f in failures:
         print("soak: FAILED: " + f, flush=True)
     if not failures:
-        print("soak: passed (%g minutes)" % args.minutes, flush=True)
+        print("soak: passed (%d minutes)" % minute, flush=True)
     return 1 if failures else 0
 
 

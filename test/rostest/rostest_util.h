@@ -7,6 +7,7 @@
 #include "instant_motion_tracking/AddPlanarTarget.h"
 
 #include <nlohmann/json.hpp>
+#include <nodelet/NodeletList.h>
 #include <opencv2/core.hpp>
 #include <ros/ros.h>
 #include <std_srvs/SetBool.h>
@@ -15,6 +16,7 @@
 #include <cstdlib>
 #include <fstream>
 #include <map>
+#include <set>
 #include <string>
 #include <vector>
 #include <sys/wait.h>
@@ -151,6 +153,16 @@ bool callService(const std::string& name, Srv& srv) {
   ROS_WARN("%s: the call failed; calling once more", name.c_str());
   spinUntil([] { return false; }, 0.5);
   return ros::service::call(name, srv);
+}
+
+// The nodelets a manager (its node's name, e.g. "/imt_manager") has loaded,
+// by its `list` service, into `names`. False when it does not answer.
+inline bool loadedNodelets(const std::string& manager, std::set<std::string>* names) {
+  nodelet::NodeletList list;
+  if (!callService(manager + "/list", list)) return false;
+  names->clear();
+  names->insert(list.response.nodelets.begin(), list.response.nodelets.end());
+  return true;
 }
 
 // Pauses or resumes a `rosbag play --pause` started by launch/replay.launch

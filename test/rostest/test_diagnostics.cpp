@@ -12,7 +12,6 @@
 #include <diagnostic_msgs/DiagnosticArray.h>
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
-#include <nodelet/NodeletList.h>
 #include <nodelet/NodeletUnload.h>
 #include <ros/ros.h>
 
@@ -20,6 +19,7 @@
 #include <cstdio>
 #include <fstream>
 #include <map>
+#include <set>
 #include <string>
 
 namespace {
@@ -162,10 +162,9 @@ TEST(Diagnostics, RatesLatencyAndItemsByStatus) {
   unload.request.name = "/planar_targets";
   if (!ros::service::call("/imt_manager/unload_nodelet", unload) || !unload.response.success)
     ROS_WARN("/imt_manager/unload_nodelet: no answer of success; asking the manager's list");
-  nodelet::NodeletList list;
-  ASSERT_TRUE(imt::test::callService("/imt_manager/list", list)) << "the manager does not answer";
-  ASSERT_EQ(std::count(list.response.nodelets.begin(), list.response.nodelets.end(), "/planar_targets"), 0)
-      << "/planar_targets is still loaded";
+  std::set<std::string> loaded;
+  ASSERT_TRUE(imt::test::loadedNodelets("/imt_manager", &loaded)) << "the manager does not answer";
+  ASSERT_EQ(loaded.count("/planar_targets"), 0u) << "/planar_targets is still loaded";
   const std::string gone = "graph_watchdog: planar_targets";
   diag.latest.clear();
   EXPECT_TRUE(spinUntil([&] { return diag.has(gone) && diag.latest[gone].level == DiagnosticStatus::ERROR; }, 5.0))

@@ -37,7 +37,6 @@
 
 #include <diagnostic_msgs/DiagnosticArray.h>
 #include <gtest/gtest.h>
-#include <nodelet/NodeletList.h>
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
 #include <ros/ros.h>
@@ -370,9 +369,8 @@ TEST(LogFlood, EveryWarningIsThrottledPerCauseAndTheGraphLivesOn) {
 
   // --- the graph afterwards ----------------------------------------------------
   // Still whole: every nodelet loaded in the manager.
-  nodelet::NodeletList list;
-  ASSERT_TRUE(imt::test::callService("/imt_manager/list", list)) << "the manager does not answer";
-  const std::set<std::string> loaded(list.response.nodelets.begin(), list.response.nodelets.end());
+  std::set<std::string> loaded;
+  ASSERT_TRUE(imt::test::loadedNodelets("/imt_manager", &loaded)) << "the manager does not answer";
   for (const char* n : {"/motion_analysis", "/region_tracker", "/planar_targets", "/anchor_tracker"})
     EXPECT_TRUE(loaded.count(n)) << n << " is no longer loaded";
 

@@ -15,7 +15,6 @@
 #include <nodelet/NodeletUnload.h>
 #include <ros/ros.h>
 
-#include <algorithm>
 #include <cstdio>
 #include <fstream>
 #include <map>

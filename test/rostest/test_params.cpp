@@ -10,7 +10,6 @@
 #include <gtest/gtest.h>
 #include <ros/ros.h>
 
-#include <algorithm>
 #include <set>
 #include <string>
 

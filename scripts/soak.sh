@@ -6,9 +6,10 @@
 # loop), prints a line per minute (frames in, messages out per output, the
 # manager's RSS, processing time mean/max, resets, graph_watchdog's verdict)
 # and fails the run when an output stops, the manager's RSS (each minute's
-# median) is more than 20% over the second minute's at the end (a minute over
-# it runs on a minute more, twice at most: a stall's queues empty, a leak
-# stays), or a nodelet is unloaded.
+# median) is more than 20% over the second minute's at the end and still
+# rising (a minute over it runs on a minute more, twice at most: a stall's
+# queues empty, an allocator's plateau stays flat, a leak goes on rising),
+# or a nodelet is unloaded.
 #   scripts/soak.sh MINUTES [--rate R] [--load N] [--out DIR] [--no-build] [--launch-arg NAME:=VALUE ...]
 # --load N: busy loops (default: one per core; 0 = none). --launch-arg goes to
 # replay.launch (e.g. bond_heartbeat_disabled:=false, ROS's bond default).
@@ -22,7 +23,7 @@ while [ $# -gt 0 ]; do
     --out) out=$2; shift 2 ;;
     --no-build) build=false; shift ;;
     --launch-arg) launch_args+=("$2"); shift 2 ;;
-    -h|--help) sed -n '2,14p' "$0"; exit 0 ;;
+    -h|--help) sed -n '2,15p' "$0"; exit 0 ;;
     -*) echo "soak.sh: unknown option '$1' (see --help)" >&2; exit 2 ;;
     *) [ -z "$minutes" ] || { echo "soak.sh: one MINUTES only" >&2; exit 2; }; minutes=$1; shift ;;
   esac

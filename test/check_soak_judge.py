@@ -4,10 +4,12 @@ minutes' medians of runs met in CI and of made-up leaks: a plateau and a
 stall pass, a leak fails. No master, no graph.
 
 usage: check_soak_judge.py REPO_ROOT
-Prints one line per problem and exits 1 on any.
+Prints one line per problem and exits 1 on any; JUnit XML (a case per run)
+goes to $IMT_TEST_RESULTS if set.
 """
 import os
 import sys
+from xml.sax.saxutils import quoteattr
 
 sys.path.insert(0, os.path.join(sys.argv[1], "scripts"))
 from soak_monitor import MemoryJudge  # noqa: E402
@@ -50,17 +52,30 @@ CASES = [
 
 
 def main():
-    problems = []
+    problems, cases = [], []
     for name, minutes, medians, want_minutes, want_fail in CASES:
         ran, failure, remark = run(minutes, medians)
         print("%s: ran %d minutes; failure: %s; remark: %s" % (name, ran, failure, remark))
+        wrong = []
         if ran != want_minutes:
-            problems.append("%s: ran %d minutes, expected %d" % (name, ran, want_minutes))
+            wrong.append("%s: ran %d minutes, expected %d" % (name, ran, want_minutes))
         if bool(failure) != want_fail:
-            problems.append("%s: %s, expected it to %s" % (name, "failed" if failure else "passed",
-                                                          "fail" if want_fail else "pass"))
+            wrong.append("%s: %s, expected it to %s" % (name, "failed" if failure else "passed",
+                                                       "fail" if want_fail else "pass"))
+        problems += wrong
+        cases.append((name, wrong))
     for p in problems:
         print("check_soak_judge: " + p)
+    results = os.environ.get("IMT_TEST_RESULTS")
+    if results:
+        os.makedirs(results, exist_ok=True)
+        with open(os.path.join(results, "soak_judge.xml"), "w") as f:
+            f.write('<?xml version="1.0"?>\n<testsuite name="soak_judge" tests="%d" failures="%d">\n'
+                    % (len(cases), sum(1 for _, w in cases if w)))
+            for name, wrong in cases:
+                failure = "<failure message=%s/>" % quoteattr("; ".join(wrong)) if wrong else ""
+                f.write('<testcase classname="soak_judge" name=%s>%s</testcase>\n' % (quoteattr(name), failure))
+            f.write("</testsuite>\n")
     return 1 if problems else 0
 
 

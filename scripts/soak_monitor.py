@@ -144,9 +144,10 @@ class MemoryJudge:
     each minute's median RSS (see the module's comment).
 
     add(minute, rss) after each minute says whether the run should go on a
-    minute more to see an excess persist; `over` is then that minute's
-    excess as a sentence (None within the bound). verdict() at the end gives
-    the failure (None: passed) and a remark to print (or None).
+    minute more to see an excess persist (`planned` is then one more);
+    `over` is that minute's excess as a sentence (None within the bound).
+    verdict() at the end gives the failure (None: passed) and a remark to
+    print (or None).
     """
 
     def __init__(self, minutes):
@@ -156,6 +157,11 @@ class MemoryJudge:
         self.over_from = None  # (minute, median) of the first minute of the run of minutes over the bound
         self.plateau = False  # that run has lasted more than a minute without rising
         self.extra = 0  # minutes run beyond those asked for
+
+    @property
+    def planned(self):
+        """The minutes the run is to last: those asked for and the extra ones."""
+        return self.minutes + self.extra
 
     def add(self, minute, rss):
         """True when the run should go on a minute more than planned."""
@@ -173,7 +179,7 @@ class MemoryJudge:
             self.plateau = rss - self.over_from[1] <= RSS_RISE * self.rss2
             self.over += " (%s %.1f MB at minute %d)" % ("not rising from" if self.plateau else "rising from",
                                                          self.over_from[1], self.over_from[0])
-        if minute == self.minutes + self.extra and self.extra < EXTRA_MINUTES:
+        if minute == self.planned and self.extra < EXTRA_MINUTES:
             self.extra += 1
             return True
         return False
@@ -205,14 +211,13 @@ def main():
     mon = Monitor(plan)
     failures = []
     judge = MemoryJudge(args.minutes)
-    minutes = args.minutes
     last = {}
     t0 = time.monotonic()
     minute = 0
     print("| minute | frames in (dropped) | motion_data | regions | planar_targets | anchors | manager RSS peak / median (MB) "
           "| processing mean/max (ms): motion, regions, planar, anchors | resets | watchdog |", flush=True)
     print("|---|---|---|---|---|---|---|---|---|---|", flush=True)
-    while minute < minutes:
+    while minute < judge.planned:
         next_at = t0 + 60.0 * (minute + 1)
         # The RSS sampled each second: the caches fill and empty with each
         # loop of the bag, so one sample is as much phase as growth.
@@ -253,7 +258,6 @@ def main():
         if any("not loaded" in r or "has not answered" in r for r in m.watchdog_errors.values()):
             failures.append("minute %d: graph_watchdog: %s" % (minute, wd))
         if judge.add(minute, rss):
-            minutes += 1
             print("soak_monitor: %s; one minute more, to see whether it stays" % judge.over, flush=True)
         if failures:
             break

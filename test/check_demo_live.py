@@ -18,6 +18,8 @@ import time
 import cv2
 import numpy as np
 
+from junit_xml import write_suite
+
 FRAMES = 120  # --duration 4 at the cards preset's 30 fps
 
 
@@ -142,15 +144,9 @@ def main():
         problems = ["demo.sh did not finish within 110 s"]
     for p in problems:
         print("FAIL: %s" % p)
-    results = os.environ.get("IMT_TEST_RESULTS")
-    if results:
-        os.makedirs(results, exist_ok=True)
-        with open(os.path.join(results, "demo_live.xml"), "w") as f:
-            failure = "<failure message=\"%s\"/>" % "; ".join(problems).replace('"', "'").replace("<", "(") \
-                if problems else ""
-            f.write('<?xml version="1.0"?>\n<testsuite name="demo_live" tests="1" failures="%d">'
-                    '<testcase classname="demo_live" name="live_graph_smoke">%s</testcase></testsuite>\n'
-                    % (1 if problems else 0, failure))
+    if os.environ.get("IMT_TEST_RESULTS"):
+        write_suite(os.environ["IMT_TEST_RESULTS"], "demo_live",
+                    [("live_graph_smoke", "; ".join(problems) or None)])
     print("demo live smoke test: %s" % ("FAILED" if problems else "passed"))
     return 1 if problems else 0
 

@@ -9,7 +9,8 @@ goes to $IMT_TEST_RESULTS if set.
 """
 import os
 import sys
-from xml.sax.saxutils import quoteattr
+
+from junit_xml import write_suite
 
 sys.path.insert(0, os.path.join(sys.argv[1], "scripts"))
 from soak_monitor import MemoryJudge  # noqa: E402
@@ -18,13 +19,12 @@ from soak_monitor import MemoryJudge  # noqa: E402
 def run(minutes, medians):
     """Feeds the medians as the monitor does (a minute more when asked, while
     there are medians); returns (minutes run, failure, remark)."""
-    judge, planned, run_for = MemoryJudge(minutes), minutes, 0
+    judge, run_for = MemoryJudge(minutes), 0
     for minute, rss in enumerate(medians, start=1):
-        if minute > planned:
+        if minute > judge.planned:
             break
         run_for = minute
-        if judge.add(minute, rss):
-            planned += 1
+        judge.add(minute, rss)
     failure, remark = judge.verdict()
     return run_for, failure, remark
 
@@ -63,19 +63,11 @@ def main():
             wrong.append("%s: %s, expected it to %s" % (name, "failed" if failure else "passed",
                                                        "fail" if want_fail else "pass"))
         problems += wrong
-        cases.append((name, wrong))
+        cases.append((name, "; ".join(wrong) or None))
     for p in problems:
         print("check_soak_judge: " + p)
-    results = os.environ.get("IMT_TEST_RESULTS")
-    if results:
-        os.makedirs(results, exist_ok=True)
-        with open(os.path.join(results, "soak_judge.xml"), "w") as f:
-            f.write('<?xml version="1.0"?>\n<testsuite name="soak_judge" tests="%d" failures="%d">\n'
-                    % (len(cases), sum(1 for _, w in cases if w)))
-            for name, wrong in cases:
-                failure = "<failure message=%s/>" % quoteattr("; ".join(wrong)) if wrong else ""
-                f.write('<testcase classname="soak_judge" name=%s>%s</testcase>\n' % (quoteattr(name), failure))
-            f.write("</testsuite>\n")
+    if os.environ.get("IMT_TEST_RESULTS"):
+        write_suite(os.environ["IMT_TEST_RESULTS"], "soak_judge", cases)
     return 1 if problems else 0
 
 

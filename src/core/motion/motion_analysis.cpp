@@ -1,6 +1,4 @@
 // Motion analysis (paper 3.1): input checks and resets, downscaling to the
-
-#include "option_checker.h"
 // analysis resolution, feature tracking (FeatureTracker), camera motion
 // (CameraMotionEstimator) with temporal priors, and the per-feature
 // foreground/background classification, packed as MotionData in
@@ -9,6 +7,9 @@
 
 #include "instant_motion_tracking/core/motion/camera_motion_estimator.h"
 #include "instant_motion_tracking/core/motion/feature_tracker.h"
+
+#include "area_resize.h"
+#include "option_checker.h"
 
 #include <opencv2/imgproc.hpp>
 
@@ -54,6 +55,7 @@ struct MotionAnalyzer::Impl {
   Eigen::Matrix3d last_H = Eigen::Matrix3d::Identity();
   bool has_H = false;
   cv::Mat small, halves[2];
+  AreaResize area;  // what is left after the halvings
   std::vector<FeatureState> state, next_state;
   // Scratch.
   std::vector<cv::Point2f> prev_px, cur_px;
@@ -135,7 +137,9 @@ MotionData MotionAnalyzer::process(const cv::Mat& gray, double stamp) {
     // Exact halvings first: OpenCV's area resize is ~10x faster for a factor
     // of exactly 2 than for a general factor (1280x720 -> 320x180: 0.09 ms
     // for two halvings, 0.7 ms at once), and box filters compose, so the
-    // result and the pixel mapping below are the same.
+    // result and the pixel mapping below are the same. The rest of the way
+    // (480x640 -> 320x427: a factor of 1.5) by AreaResize, the same area
+    // average in a fraction of OpenCV's time (area_resize.h).
     const cv::Mat* src = &gray;
     int k = 0;
     while (src->cols % 2 == 0 && src->rows % 2 == 0 && src->cols >= 2 * aw && src->rows >= 2 * ah) {
@@ -144,7 +148,7 @@ MotionData MotionAnalyzer::process(const cv::Mat& gray, double stamp) {
       src = &dst;
     }
     if (src->cols != aw || src->rows != ah) {
-      cv::resize(*src, s.small, cv::Size(aw, ah), 0, 0, cv::INTER_AREA);
+      s.area.apply(*src, cv::Size(aw, ah), &s.small);
       src = &s.small;
     }
     analysed = src;

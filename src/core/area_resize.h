@@ -1,11 +1,13 @@
-// An area-average downscale (cv::INTER_AREA's) of a CV_8UC1 frame, for the
-// factors OpenCV takes its general path for: anything but exact halvings.
-// There OpenCV's is scalar (480 x 640 -> 320 x 427, one core: 0.55 ms). This
-// one is separable, its loops over whole rows (the frame transposed for the
-// sums across), which the compiler vectorises: 0.21 ms there. OpenCV's
-// weights (each source pixel's overlap with the output pixel, slivers under
-// 1e-3 px left out), its order of float sums and its rounding: the output
-// is OpenCV's, bit for bit on every size tested (test_area_resize.cpp).
+// cv::resize(src, dst, size, 0, 0, cv::INTER_AREA), bit for bit, faster
+// where OpenCV takes its general path (a CV_8UC1 image shrunk by factors
+// not both whole, as what is left after exact halvings): there OpenCV's is
+// scalar (480 x 640 -> 320 x 427, one core: 0.55 ms). This one is
+// separable, its loops over whole rows (the frame transposed for the sums
+// across), which the compiler vectorises: 0.21 ms there. OpenCV's weights
+// (each source pixel's overlap with the output pixel, slivers under 1e-3 px
+// left out), its order of float sums and its rounding: the output is
+// OpenCV's on every size tested (test_area_resize.cpp). Anything else goes
+// to OpenCV's own.
 //
 // Usage:
 //   imt::AreaResize r;
@@ -20,8 +22,8 @@ namespace imt {
 
 class AreaResize {
  public:
-  // `src` (CV_8UC1, non-empty) averaged down to `size` (each side at most
-  // src's and at least 1) into `dst`. Anything else: dst released, false.
+  // `src` resized to `size` into `dst`, as by cv::INTER_AREA. An empty
+  // `src` or a side under 1: dst released, false.
   bool apply(const cv::Mat& src, cv::Size size, cv::Mat* dst);
 
  private:

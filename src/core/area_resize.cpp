@@ -1,6 +1,9 @@
 #include "area_resize.h"
 
+#include <opencv2/imgproc.hpp>
+
 #include <algorithm>
+#include <cfloat>
 #include <cmath>
 
 namespace imt {
@@ -33,10 +36,20 @@ void AreaResize::make(int from, int to, Taps* taps) {
 }
 
 bool AreaResize::apply(const cv::Mat& src, cv::Size size, cv::Mat* dst) {
-  if (src.empty() || src.type() != CV_8UC1 || size.width < 1 || size.height < 1 || size.width > src.cols ||
-      size.height > src.rows) {
+  if (src.empty() || size.width < 1 || size.height < 1) {
     dst->release();
     return false;
+  }
+  // OpenCV's own where it does not take its general path: whole factors on
+  // both sides (its fast path), a side enlarged (no area average then), and
+  // other pixel types. Its test, in double.
+  const double fx = 1.0 / (static_cast<double>(size.width) / src.cols);
+  const double fy = 1.0 / (static_cast<double>(size.height) / src.rows);
+  const bool whole = std::abs(fx - cv::saturate_cast<int>(fx)) < DBL_EPSILON &&
+                     std::abs(fy - cv::saturate_cast<int>(fy)) < DBL_EPSILON;
+  if (src.type() != CV_8UC1 || fx < 1 || fy < 1 || whole) {
+    cv::resize(src, *dst, size, 0, 0, cv::INTER_AREA);
+    return true;
   }
   make(src.cols, size.width, &x_);
   make(src.rows, size.height, &y_);

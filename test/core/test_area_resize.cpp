@@ -35,11 +35,12 @@ Diff against(const cv::Mat& src, cv::Size size) {
 
 // The factors the motion analysis meets after its halvings (under 2: 480 ->
 // 320, 800 -> 400 -> 320, 1920 -> 480 -> 320), larger ones (odd sizes are not
-// halved), odd and one-pixel outputs, a factor of 1 on one axis, and a
-// window into a larger image; and what it leaves to OpenCV. The same products added in the same order as
-// OpenCV's: equal bit for bit (measured here, GCC 12 on x86-64: no pixel
-// differs on any of these). One level at one pixel in 10,000 is allowed for
-// a build that fuses the multiply-adds (rounding once, not twice).
+// halved), odd and one-pixel outputs, a factor of 1 on one axis, a window
+// into a larger image, and what it leaves to OpenCV. The same products added
+// in the same order as OpenCV's: equal bit for bit (measured here, GCC 12 on
+// x86-64: no pixel differs on any of these). One level at one pixel in
+// 10,000 is allowed for a build that fuses the multiply-adds (rounding once,
+// not twice).
 TEST(AreaResize, EqualsOpenCvsAreaResize) {
   const cv::Mat big = synthetic::texture(2000, 1200, 7);
   const struct {

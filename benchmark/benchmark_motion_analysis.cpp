@@ -11,7 +11,10 @@
 // generator's "cards" preset (camera pan/roll/zoom, three moving cards), played
 // forward and backward so that consecutive frames are always neighbours.
 // BM_ModuleVsBaseline interleaves the two per frame and reports their ratio,
-// which is robust to load from other processes.
+// which is robust to load from other processes. BM_CornerMapVsOpenCv does the
+// same for the corner detection's map of one grid cell (MinEigenvalues
+// against cv::cornerMinEigenVal).
+#include "../src/core/motion/min_eigenvalues.h"
 #include "instant_motion_tracking/core/motion/motion_analysis.h"
 #include "instant_motion_tracking/sim/scene.h"
 
@@ -175,6 +178,50 @@ void BM_ModuleVsBaseline(benchmark::State& state) {
   state.counters["ratio"] = baseline_ms > 0 ? module_ms / baseline_ms : 0;
 }
 BENCHMARK(BM_ModuleVsBaseline)->Apply(inputSizes)->Unit(benchmark::kMillisecond);
+
+// The corner map of each grid cell (8 x 6, default options) of the 320 x 240
+// analysis frame, with its pixel of context, as the feature tracker asks for
+// it: MinEigenvalues and cv::cornerMinEigenVal in turn on each cell, timed
+// by thread CPU time; the ratio is ours / OpenCV's.
+void BM_CornerMapVsOpenCv(benchmark::State& state) {
+  const auto& v = frames(640, 480);
+  const imt::MotionAnalysisOptions o;
+  std::vector<cv::Mat> small(8);
+  for (size_t i = 0; i < small.size(); ++i)
+    cv::resize(frameAt(v, static_cast<int64_t>(i)), small[i], cv::Size(320, 240), 0, 0,
+               cv::INTER_AREA);
+  const cv::Size size = small[0].size();
+  std::vector<cv::Rect> cells;
+  for (int gy = 0; gy < o.grid_rows; ++gy)
+    for (int gx = 0; gx < o.grid_cols; ++gx) {
+      const int x0 = gx * size.width / o.grid_cols, x1 = (gx + 1) * size.width / o.grid_cols;
+      const int y0 = gy * size.height / o.grid_rows, y1 = (gy + 1) * size.height / o.grid_rows;
+      cells.push_back(cv::Rect(x0 - 1, y0 - 1, x1 - x0 + 2, y1 - y0 + 2) &
+                      cv::Rect(cv::Point(), size));
+    }
+  imt::MinEigenvalues ours;
+  cv::Mat map;
+  double ours_ms = 0, opencv_ms = 0;
+  int64_t k = 0, n = 0;
+  for (auto _ : state) {
+    const cv::Mat& f = small[k++ % small.size()];
+    for (const cv::Rect& c : cells) {
+      const double t0 = threadCpuMs();
+      ours.apply(f, c, &map);
+      benchmark::DoNotOptimize(map.data);
+      const double t1 = threadCpuMs();
+      cv::cornerMinEigenVal(f(c), map, 3, 3);
+      benchmark::DoNotOptimize(map.data);
+      opencv_ms += threadCpuMs() - t1;
+      ours_ms += t1 - t0;
+      ++n;
+    }
+  }
+  state.counters["ours_us_per_cell"] = 1e3 * ours_ms / std::max<int64_t>(1, n);
+  state.counters["opencv_us_per_cell"] = 1e3 * opencv_ms / std::max<int64_t>(1, n);
+  state.counters["ratio"] = opencv_ms > 0 ? ours_ms / opencv_ms : 0;
+}
+BENCHMARK(BM_CornerMapVsOpenCv)->Unit(benchmark::kMillisecond);
 
 }  // namespace
 

@@ -307,20 +307,23 @@ void FeatureTracker::detect(const cv::Mat& image) {
     const float thresh =
         static_cast<float>(std::max(options_.min_eigenvalue, options_.quality_level * cell_max));
     cand.clear();
-    for (int y = roi.y; y < roi.y + roi.height; ++y) {
-      const int ey = y - ext.y;
-      if (ey < 1 || ey >= eig_.rows - 1) continue;
+    // The cell's pixels with all eight neighbours in the map, row by row
+    // (the candidates in the same order as ever: the sort below is not
+    // stable), the bounds kept out of the loop.
+    const int x_lo = std::max(1, roi.x - ext.x), x_hi = std::min(eig_.cols - 1, roi.br().x - ext.x);
+    const int y_lo = std::max(1, roi.y - ext.y), y_hi = std::min(eig_.rows - 1, roi.br().y - ext.y);
+    for (int ey = y_lo; ey < y_hi; ++ey) {
       const float* r0 = eig_.ptr<float>(ey - 1);
       const float* r1 = eig_.ptr<float>(ey);
       const float* r2 = eig_.ptr<float>(ey + 1);
-      for (int x = roi.x; x < roi.x + roi.width; ++x) {
-        const int ex = x - ext.x;
-        if (ex < 1 || ex >= eig_.cols - 1) continue;
+      for (int ex = x_lo; ex < x_hi; ++ex) {
         const float v = r1[ex];
-        if (v < thresh || v < r1[ex - 1] || v < r1[ex + 1] || v < r0[ex - 1] || v < r0[ex] ||
-            v < r0[ex + 1] || v < r2[ex - 1] || v < r2[ex] || v < r2[ex + 1])
+        if (v < thresh) continue;
+        if (v < r1[ex - 1] || v < r1[ex + 1] || v < r0[ex - 1] || v < r0[ex] || v < r0[ex + 1] ||
+            v < r2[ex - 1] || v < r2[ex] || v < r2[ex + 1])
           continue;
-        cand.push_back({v, cv::Point2f(static_cast<float>(x), static_cast<float>(y))});
+        cand.push_back(
+            {v, cv::Point2f(static_cast<float>(ex + ext.x), static_cast<float>(ey + ext.y))});
       }
     }
     if (cand.empty()) {

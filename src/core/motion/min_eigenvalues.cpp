@@ -1,16 +1,14 @@
 #include "motion/min_eigenvalues.h"
 
+#include <algorithm>
 #include <cmath>
 
 namespace imt {
 namespace {
 
-// OpenCV's BORDER_REFLECT_101 index (…, 2, 1 | 0, 1, 2, … n-1 | n-2, …).
-int reflect101(int i, int n) {
-  if (n == 1) return 0;
-  while (i < 0 || i >= n) i = i < 0 ? -i : 2 * n - 2 - i;
-  return i;
-}
+// OpenCV's BORDER_REFLECT_101 index (…, 2, 1 | 0, 1, 2, … n-1 | n-2, …), the
+// border its Sobel and box filter read.
+int reflect101(int i, int n) { return cv::borderInterpolate(i, n, cv::BORDER_REFLECT_101); }
 
 // The slot of image row r among the three rolling rows.
 int slotOf(int r) { return ((r % 3) + 3) % 3; }
@@ -90,7 +88,10 @@ bool MinEigenvalues::apply(const cv::Mat& gray, const cv::Rect& area, cv::Mat* o
     const uint8_t* p = gray.ptr<uint8_t>(reflect101(r, gray.rows));
     const uint8_t* q = p + area.x - 1;
     if (!inside) {
-      for (int i = 0; i < w + 2; ++i) row_[i] = p[reflect101(area.x - 1 + i, gray.cols)];
+      // Only the two ends can fall outside the frame.
+      row_[0] = p[reflect101(area.x - 1, gray.cols)];
+      std::copy(p + area.x, p + area.x + w, row_.begin() + 1);
+      row_[w + 1] = p[reflect101(area.x + w, gray.cols)];
       q = row_.data();
     }
     horizontal(q, w, diff_.data() + slotOf(r) * w, smooth_.data() + slotOf(r) * w);

@@ -260,7 +260,7 @@ constexpr char kUsage[] =
     "                             [sequence...]\n"
     "  --ours-only       leave out OpenCV's KCF and CSRT\n"
     "  --no-appearance   our tracker on motion data alone (no look, no own corners)\n"
-    "  --set name=value  a region_tracking option (as in config YAML)\n"
+    "  --set name=value  a region_tracking option, section.name=value another section's (as in config YAML)\n"
     "  --trace           our tracker's state on every frame (implies --ours-only)\n"
     "  --trace-peers     the peers' boxes on every frame\n"
     "  --peers-gray      the peers get the gray frames this package gets, not the colour ones\n"

@@ -65,7 +65,7 @@ struct IouAccumulator {
 
 constexpr char kUsage[] =
     "usage: benchmark_region_tracking [--set option=value] [--ours-only] [--regions N] [seconds]\n"
-    "  --set name=value  a region_tracking option of our rows (as in config YAML)\n"
+    "  --set name=value  a region_tracking option of our rows, section.name=value another section's (as in config YAML)\n"
     "  --ours-only       leave out OpenCV's KCF and CSRT (a minute of CSRT)\n"
     "  --regions N       our rows with N regions only (1..1000), after a warm-up with one\n"
     "  seconds           length of the rendered `cards` scene (default 10)\n";

@@ -76,24 +76,30 @@ bool AreaResize::apply(const cv::Mat& src, cv::Size size, cv::Mat* dst) {
   }
   cv::transpose(across_t_, across_);
   // Down: each output row the weighted sum of its source rows' sums, in
-  // the table's order (as OpenCV adds them), then rounded.
+  // the table's order (as OpenCV adds them), then rounded as OpenCV rounds
+  // (saturate_cast, by convertTo's vector loop: the scalar rounding of each
+  // pixel took 40% of the time) a block of rows at a time.
   dst->create(size, CV_8UC1);
-  row_.resize(size.width);
-  float* sum = row_.data();
-  for (int j = 0; j < size.height; ++j) {
-    const int t0 = y_.start[j], t1 = y_.start[j + 1];
-    {
-      const float* a = across_.ptr<float>(y_.index[t0]);
-      const float w = y_.weight[t0];
-      for (int i = 0; i < size.width; ++i) sum[i] = w * a[i];
+  constexpr int kBlockRows = 16;
+  block_.create(std::min(kBlockRows, size.height), size.width, CV_32F);
+  for (int j0 = 0; j0 < size.height; j0 += kBlockRows) {
+    const int rows = std::min(kBlockRows, size.height - j0);
+    for (int j = j0; j < j0 + rows; ++j) {
+      float* sum = block_.ptr<float>(j - j0);
+      const int t0 = y_.start[j], t1 = y_.start[j + 1];
+      {
+        const float* a = across_.ptr<float>(y_.index[t0]);
+        const float w = y_.weight[t0];
+        for (int i = 0; i < size.width; ++i) sum[i] = w * a[i];
+      }
+      for (int t = t0 + 1; t < t1; ++t) {
+        const float* a = across_.ptr<float>(y_.index[t]);
+        const float w = y_.weight[t];
+        for (int i = 0; i < size.width; ++i) sum[i] += w * a[i];
+      }
     }
-    for (int t = t0 + 1; t < t1; ++t) {
-      const float* a = across_.ptr<float>(y_.index[t]);
-      const float w = y_.weight[t];
-      for (int i = 0; i < size.width; ++i) sum[i] += w * a[i];
-    }
-    uint8_t* d = dst->ptr<uint8_t>(j);
-    for (int i = 0; i < size.width; ++i) d[i] = cv::saturate_cast<uint8_t>(sum[i]);
+    cv::Mat out = dst->rowRange(j0, j0 + rows);
+    block_.rowRange(0, rows).convertTo(out, CV_8U);
   }
   return true;
 }

@@ -293,7 +293,7 @@ int main(int argc, char** argv) {
       g_config.pipeline.region_tracking.region_features = 0;
     }
     else if (a == "--set" && i + 1 < argc) {
-      if (!imt::bench::setRegionOption(argv[++i], &g_config)) return 2;
+      if (!imt::bench::setOption(argv[++i], &g_config)) return 2;
     }
     else if (a == "--trace") g_trace = ours_only = true;
     else if (a == "--trace-peers") g_trace_peers = true;

@@ -79,7 +79,7 @@ int main(int argc, char** argv) {
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     if (a == "--set" && i + 1 < argc) {
-      if (!imt::bench::setRegionOption(argv[++i], &config)) return 2;
+      if (!imt::bench::setOption(argv[++i], &config)) return 2;
     } else if (a == "--ours-only") {
       peers = false;
     } else if (a == "--regions" && i + 1 < argc) {

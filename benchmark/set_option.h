@@ -13,17 +13,16 @@ namespace bench {
 
 // Applies `name=value` to config's region_tracking (`section.name=value` to
 // that section); false (the reason on stderr) when the name or value is not one.
-inline bool setRegionOption(const std::string& name_value, Config* config) {
-  std::string kv = name_value, section = "region_tracking", err;
-  const size_t eq = kv.find('=');
-  const size_t dot = kv.find('.');
-  if (dot != std::string::npos && dot < eq) {
-    section = kv.substr(0, dot);
-    kv.erase(0, dot + 1);
+inline bool setOption(const std::string& name_value, Config* config) {
+  const size_t eq = name_value.find('=');
+  std::string name = name_value.substr(0, eq), section = "region_tracking", err;
+  const size_t dot = name.find('.');
+  if (dot != std::string::npos) {
+    section = name.substr(0, dot);
+    name.erase(0, dot + 1);
   }
-  const size_t colon = kv.find('=');
-  if (colon != std::string::npos) kv.replace(colon, 1, ": ");
-  if (loadConfigYaml(section + ": {" + kv + "}", "--set " + name_value, config, &err)) return true;
+  const std::string value = eq == std::string::npos ? "" : ": " + name_value.substr(eq + 1);
+  if (loadConfigYaml(section + ": {" + name + value + "}", "--set " + name_value, config, &err)) return true;
   std::fprintf(stderr, "%s\n", err.c_str());
   return false;
 }

@@ -39,7 +39,7 @@ class AreaResize {
   cv::Mat src_t_;     // the source transposed
   cv::Mat across_t_;  // CV_32F, size.width x src.rows: each source row's sums, transposed
   cv::Mat across_;    // and back: src.rows x size.width
-  cv::Mat block_;      // CV_32F: a block of output rows before rounding
+  cv::Mat block_;     // CV_32F: a block of output rows before rounding
 };
 
 }  // namespace imt

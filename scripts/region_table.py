@@ -1,0 +1,177 @@
+#!/usr/bin/python3
+"""The whole real-video table of region tracking in one command: this
+package's success AUC on every box sequence in ../shared/data in each of the
+five ways docs/benchmarks.md reports it (the first frame's box; the middle
+frame's, its halves backward and forward; every 2nd frame; every 3rd), as
+means over nudged starts, with a mean row. Two benchmark processes at a time,
+each on a core of its own (taskset), so the five take about a minute on two
+cores. A tracking change is judged on this table before and after, whole.
+
+usage: region_table.py [--bench PATH] [--starts N] [--save FILE] [--against FILE]
+                       [-- benchmark arguments, e.g. --set appearance_budget=4]
+
+  --bench PATH     benchmark_region_real (default: _build/benchmark/ beside scripts/,
+                   or $IMT_BUILD_DIR/benchmark/)
+  --starts N       runs from the given box and N - 1 nudged copies (default 8)
+  --save FILE      also writes the table's figures to FILE (JSON)
+  --against FILE   prints each figure as "before -> after", the before from a
+                   --save of an earlier run
+Arguments after "--" go to every benchmark run (--set, --no-appearance, ...).
+Exits 1 when a run fails or prints no row of ours.
+"""
+import argparse
+import json
+import os
+import subprocess
+import sys
+import tempfile
+
+MODES = ["first", "mid back", "mid fwd", "every 2nd", "every 3rd"]
+OURS = "instant_motion_tracking"
+MEAN = "mean"
+
+
+def parse(text):
+    """{(sequence, mode): success AUC} of our rows in one run's output; the
+    mode from the run's own row names (", backward" / ", forward" for the
+    middle frame's halves, "/N" for every Nth frame). The benchmark's own
+    mean row is left out: the table's mean is taken over the five modes'
+    own sequences (mean())."""
+    out = {}
+    for line in text.splitlines():
+        cells = [c.strip() for c in line.split("|")]
+        if len(cells) < 6 or not cells[2].startswith(OURS):
+            continue
+        name = cells[1].replace("*", "")
+        if name == MEAN:
+            continue
+        try:
+            auc = float(cells[4])
+        except ValueError:
+            continue
+        stride = 1
+        if "/" in name:
+            name, n = name.rsplit("/", 1)
+            stride = int(n)
+        tracker = cells[2]
+        if tracker.endswith(", backward"):
+            mode = "mid back"
+        elif tracker.endswith(", forward"):
+            mode = "mid fwd"
+        elif stride == 2:
+            mode = "every 2nd"
+        elif stride == 3:
+            mode = "every 3rd"
+        elif stride == 1:
+            mode = "first"
+        else:
+            continue
+        out[(name, mode)] = auc
+    return out
+
+
+def mean(figures):
+    """Adds each mode's mean over its sequences (sequence MEAN)."""
+    out = dict(figures)
+    for mode in MODES:
+        values = [v for (s, m), v in figures.items() if m == mode and s != MEAN]
+        if values:
+            out[(MEAN, mode)] = sum(values) / len(values)
+    return out
+
+
+def table(after, before=None):
+    """The markdown table: a row per sequence (in first-seen order), MEAN last."""
+    sequences = []
+    for s, _ in after:
+        if s != MEAN and s not in sequences:
+            sequences.append(s)
+    sequences.append(MEAN)
+    lines = ["| sequence | " + " | ".join(MODES) + " |", "|---" * (len(MODES) + 1) + "|"]
+    for s in sequences:
+        cells = []
+        for m in MODES:
+            a = after.get((s, m))
+            text = "-" if a is None else "%.3f" % a
+            if before is not None:
+                b = before.get((s, m))
+                text = ("-" if b is None else "%.3f" % b) + " -> " + text
+            cells.append(text)
+        name = "**mean**" if s == MEAN else s
+        lines.append("| %s | %s |" % (name, " | ".join(cells)))
+    return "\n".join(lines)
+
+
+def to_json(figures):
+    return {"%s|%s" % k: v for k, v in figures.items()}
+
+
+def from_json(d):
+    return {tuple(k.split("|", 1)): v for k, v in d.items()}
+
+
+def default_bench():
+    build = os.environ.get("IMT_BUILD_DIR") or os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "_build")
+    return os.path.join(build, "benchmark", "benchmark_region_real")
+
+
+def main(argv):
+    extra = []
+    if "--" in argv:
+        extra = argv[argv.index("--") + 1:]
+        argv = argv[:argv.index("--")]
+    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    p.add_argument("--bench", default=default_bench())
+    p.add_argument("--starts", type=int, default=8)
+    p.add_argument("--save")
+    p.add_argument("--against")
+    a = p.parse_args(argv)
+    if not os.access(a.bench, os.X_OK):
+        print("no benchmark at %s: build it (scripts/setup.sh's imt_build benchmarks) or give --bench" % a.bench,
+              file=sys.stderr)
+        return 1
+    before = None
+    if a.against:
+        with open(a.against) as f:
+            before = from_json(json.load(f))
+    base = [a.bench, "--ours-only", "--starts", str(a.starts)] + extra
+    # Two queues, one per core: the middle frame's runs (the longest) beside
+    # the first frame's and every 2nd frame's, then every 3rd.
+    queues = [[[], ["--stride", "2"]], [["--mid"], ["--stride", "3"]]]
+    cores = os.cpu_count() or 1
+    figures = {}
+    failed = False
+    with tempfile.TemporaryDirectory() as tmp:
+        procs = []
+        for q, runs in enumerate(queues):
+            script = " && ".join(
+                " ".join(["taskset", "-c", str(q % cores)] + [_quote(x) for x in base + run] +
+                         [">", _quote(os.path.join(tmp, "%d_%d" % (q, i))), "2>&1"])
+                for i, run in enumerate(runs))
+            procs.append(subprocess.Popen(["/bin/sh", "-c", script]))
+        for proc in procs:
+            failed |= proc.wait() != 0
+        for q, runs in enumerate(queues):
+            for i, _ in enumerate(runs):
+                path = os.path.join(tmp, "%d_%d" % (q, i))
+                if os.path.exists(path):
+                    with open(path) as f:
+                        figures.update(parse(f.read()))
+    if failed or not figures:
+        print("a benchmark run failed or printed no row of ours (%s)" % " ".join(base), file=sys.stderr)
+        return 1
+    figures = mean(figures)
+    print("Success AUC, this package, means of %d starts%s:" % (a.starts, (" (" + " ".join(extra) + ")") if extra else ""))
+    print(table(figures, before))
+    if a.save:
+        with open(a.save, "w") as f:
+            json.dump(to_json(figures), f, indent=1, sort_keys=True)
+    return 0
+
+
+def _quote(s):
+    return "'" + s.replace("'", "'\\''") + "'"
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv[1:]))

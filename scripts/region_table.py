@@ -22,6 +22,7 @@ Exits 1 when a run fails or prints no row of ours.
 import argparse
 import json
 import os
+import shlex
 import subprocess
 import sys
 import tempfile
@@ -140,23 +141,20 @@ def main(argv):
     queues = [[[], ["--stride", "2"]], [["--mid"], ["--stride", "3"]]]
     cores = os.cpu_count() or 1
     figures = {}
-    failed = False
     with tempfile.TemporaryDirectory() as tmp:
-        procs = []
+        procs, outputs = [], []
         for q, runs in enumerate(queues):
-            script = " && ".join(
-                " ".join(["taskset", "-c", str(q % cores)] + [_quote(x) for x in base + run] +
-                         [">", _quote(os.path.join(tmp, "%d_%d" % (q, i))), "2>&1"])
-                for i, run in enumerate(runs))
-            procs.append(subprocess.Popen(["/bin/sh", "-c", script]))
-        for proc in procs:
-            failed |= proc.wait() != 0
-        for q, runs in enumerate(queues):
-            for i, _ in enumerate(runs):
-                path = os.path.join(tmp, "%d_%d" % (q, i))
-                if os.path.exists(path):
-                    with open(path) as f:
-                        figures.update(parse(f.read()))
+            commands = []
+            for i, run in enumerate(runs):
+                outputs.append(os.path.join(tmp, "%d_%d" % (q, i)))
+                commands.append("%s > %s 2>&1" % (shlex.join(["taskset", "-c", str(q % cores)] + base + run),
+                                                  shlex.quote(outputs[-1])))
+            procs.append(subprocess.Popen(["/bin/sh", "-c", " && ".join(commands)]))
+        failed = [proc.wait() for proc in procs] != [0] * len(procs)
+        for path in outputs:
+            if os.path.exists(path):
+                with open(path) as f:
+                    figures.update(parse(f.read()))
     if failed or not figures:
         print("a benchmark run failed or printed no row of ours (%s)" % " ".join(base), file=sys.stderr)
         return 1
@@ -167,10 +165,6 @@ def main(argv):
         with open(a.save, "w") as f:
             json.dump(to_json(figures), f, indent=1, sort_keys=True)
     return 0
-
-
-def _quote(s):
-    return "'" + s.replace("'", "'\\''") + "'"
 
 
 if __name__ == "__main__":

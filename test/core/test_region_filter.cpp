@@ -9,6 +9,7 @@
 #include <cmath>
 #include <cstdio>
 #include <limits>
+#include <vector>
 
 namespace imt {
 namespace {
@@ -98,6 +99,41 @@ TEST(RegionFilter, LearningLeavesCopiesAsTheyWere) {
   EXPECT_EQ(before.psr, after.psr);
   // The learner itself took on half of the other texture.
   EXPECT_LT(f.locate(frame, kBox).peak, 0.8 * before.peak);
+}
+
+// A thread keeps the spectra of the filters it located last (a filter's
+// weights change only when it learns): more filters than it keeps, located
+// in turn, in one order and then the other, each on its own region, must
+// find exactly what they found the first time, each with its own weights.
+TEST(RegionFilter, ManyFiltersFindAlikeInAnyOrder) {
+  constexpr int kFilters = 7;  // more than the thread keeps
+  std::vector<cv::Mat> frames, moved;
+  std::vector<RegionFilter> filters(kFilters);
+  const cv::Point2d d(5, -3);
+  for (int i = 0; i < kFilters; ++i) {
+    frames.push_back(texture(40 + i));
+    moved.push_back(shifted(frames.back(), d.x, d.y));
+    ASSERT_TRUE(RegionFilter::create(frames.back(), kBox, &filters[i]));
+  }
+  std::vector<FilterMatch> first(kFilters);
+  for (int i = 0; i < kFilters; ++i) {
+    first[i] = filters[i].locate(moved[i], kBox);
+    ASSERT_TRUE(first[i].found);
+    // Each finds its region where it moved (as FindsTheRegionWhereItMoved).
+    EXPECT_LT(std::hypot(first[i].shift.x - d.x, first[i].shift.y - d.y), 1.5) << i;
+  }
+  for (const bool reverse : {true, false}) {
+    for (int k = 0; k < kFilters; ++k) {
+      const int i = reverse ? kFilters - 1 - k : k;
+      const FilterMatch m = filters[i].locate(moved[i], kBox);
+      EXPECT_EQ(m.peak, first[i].peak) << i;
+      EXPECT_EQ(m.psr, first[i].psr) << i;
+      EXPECT_EQ(m.shift, first[i].shift) << i;
+    }
+  }
+  // Another filter's weights on this region peak lower (so the checks above
+  // would see a mix-up).
+  EXPECT_LT(filters[1].locate(moved[0], kBox).peak, 0.8 * first[0].peak);
 }
 
 TEST(RegionFilter, LearnsAChangedLook) {

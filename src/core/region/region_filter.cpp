@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <cmath>
 #include <complex>
+#include <list>
 
 namespace imt {
 namespace {
@@ -30,6 +31,59 @@ cv::Mat spectrum(const cv::Mat& real) {
   cv::Mat out;
   cv::dft(real, out, cv::DFT_COMPLEX_OUTPUT);
   return out;
+}
+
+// The spectra of a filter's weights (each channel's zero-padded to the
+// window, packed as cv::dft gives a real input's), for the filters a thread
+// located last. A region's weights change only when it learns (at most every
+// other frame), and each find between would transform the same ten again.
+// An entry is known by its weights' buffers, which it holds: no other
+// filter can be given those while it is kept.
+class SpectraCache {
+ public:
+  // The spectra of `h` (per channel, `rect` of an n x n window), channels
+  // whose `weights` are 0 left empty.
+  const std::vector<cv::Mat>& of(const std::vector<cv::Mat>& h, const std::vector<float>& weights, const cv::Rect& rect,
+                                 int n) {
+    for (auto it = entries_.begin(); it != entries_.end(); ++it) {
+      if (!same(it->h, h)) continue;
+      if (it != entries_.begin()) entries_.splice(entries_.begin(), entries_, it);
+      return entries_.front().spectra;
+    }
+    Entry e;
+    e.h = h;
+    e.spectra.resize(h.size());
+    cv::Mat padded = cv::Mat::zeros(n, n, CV_32F);
+    for (size_t c = 0; c < h.size(); ++c) {
+      if (weights[c] <= 0) continue;
+      h[c].copyTo(padded(rect));
+      cv::dft(padded, e.spectra[c]);
+    }
+    entries_.push_front(std::move(e));
+    if (entries_.size() > kKept) entries_.pop_back();
+    return entries_.front().spectra;
+  }
+
+ private:
+  // A few: one region's finds hit; many regions' finds (a few a frame, each
+  // region's every many frames) miss, and the entries only bound the memory
+  // (at 50 cells, 100 kB each).
+  static constexpr size_t kKept = 4;
+  struct Entry {
+    std::vector<cv::Mat> h, spectra;
+  };
+  static bool same(const std::vector<cv::Mat>& a, const std::vector<cv::Mat>& b) {
+    if (a.size() != b.size()) return false;
+    for (size_t c = 0; c < a.size(); ++c)
+      if (a[c].data != b[c].data) return false;
+    return true;
+  }
+  std::list<Entry> entries_;
+};
+
+SpectraCache& spectraCache() {
+  thread_local SpectraCache cache;
+  return cache;
 }
 
 }  // namespace
@@ -257,16 +311,15 @@ FilterMatch RegionFilter::locate(const cv::Mat& gray, const cv::Rect2d& box) con
   const int n = cells_;
   const std::vector<cv::Mat> f = features(window(gray, box, scale));
   // The spectra packed (CCS: real input, half the products). The filter's
-  // own are transformed on every find, not kept: kept, each state in a
-  // region's history (offline, all of them) would hold 10 n x n spectra,
-  // 100 kB at 50 cells, instead of its box's cells (about 8 kB).
-  cv::Mat sum = cv::Mat::zeros(n, n, CV_32F), padded = cv::Mat::zeros(n, n, CV_32F), fc, hc, prod;
+  // own are not kept with it: each state in a region's history (offline,
+  // all of them) would hold 10 n x n spectra, 100 kB at 50 cells, instead of
+  // its box's cells (about 8 kB); the thread keeps the last few filters'.
+  const std::vector<cv::Mat>& spectra = spectraCache().of(h_, weights_, rect_, n);
+  cv::Mat sum = cv::Mat::zeros(n, n, CV_32F), fc, prod;
   for (size_t c = 0; c < f.size(); ++c) {
     if (weights_[c] <= 0) continue;
-    h_[c].copyTo(padded(rect_));
     cv::dft(f[c], fc);
-    cv::dft(padded, hc);
-    cv::mulSpectrums(fc, hc, prod, 0, true);
+    cv::mulSpectrums(fc, spectra[c], prod, 0, true);
     cv::scaleAdd(prod, weights_[c], sum, sum);
   }
   cv::Mat response;

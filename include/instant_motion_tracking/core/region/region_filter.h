@@ -24,7 +24,8 @@
 //     f.learn(next_gray, predicted_box, 0.02);
 //   }
 // Threading: plain value type (copies share their immutable weights; learn()
-// replaces them); const methods may run concurrently.
+// replaces them); const methods may run concurrently (each thread keeps the
+// spectra of the few filters it located last).
 #pragma once
 
 #include <opencv2/core.hpp>

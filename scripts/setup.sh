@@ -95,24 +95,33 @@ imt_source_workspace() {
 # process group (its pid appended to the array named PIDS_ARRAY), logs in
 # LOGDIR; sets IMT_CHILD_ENV (an env command line with ROS_MASTER_URI and
 # ROS_LOG_DIR for the children) and IMT_MASTER_PORT. Fails when the master
-# is not up within 20 s.
+# is not up within 20 s. The port is free when picked, but another socket
+# may take it before roscore binds it (the kernel hands ports of the same
+# range to outgoing connections; seen once in scripts/test.sh's soak): a
+# roscore that exits is started again on another port, three times at most.
 imt_start_roscore() {
   local logs=$1
   local -n imt_pids_ref=$2
-  IMT_MASTER_PORT=$(/usr/bin/python3 -c 'import socket; s = socket.socket(); s.bind(("localhost", 0)); print(s.getsockname()[1])')
-  IMT_CHILD_ENV=(env ROS_MASTER_URI="http://localhost:$IMT_MASTER_PORT" ROS_LOG_DIR="$logs")
-  imt_log "roscore on port $IMT_MASTER_PORT (logs: $logs)"
-  setsid "${IMT_CHILD_ENV[@]}" roscore -p "$IMT_MASTER_PORT" >"$logs/roscore.out" 2>&1 &
-  local pid=$!
-  imt_pids_ref+=("$pid")
-  local _
-  for _ in $(seq 100); do
-    "${IMT_CHILD_ENV[@]}" /usr/bin/python3 -c 'import rosgraph, sys; sys.exit(not rosgraph.is_master_online())' \
-      2>/dev/null && return 0
-    kill -0 "$pid" 2>/dev/null || { imt_log "roscore exited: $(tail -n 3 "$logs/roscore.out")"; return 1; }
-    sleep 0.2
+  local try _ pid
+  for try in 1 2 3; do
+    IMT_MASTER_PORT=$(/usr/bin/python3 -c 'import socket; s = socket.socket(); s.bind(("localhost", 0)); print(s.getsockname()[1])')
+    IMT_CHILD_ENV=(env ROS_MASTER_URI="http://localhost:$IMT_MASTER_PORT" ROS_LOG_DIR="$logs")
+    imt_log "roscore on port $IMT_MASTER_PORT (logs: $logs)"
+    setsid "${IMT_CHILD_ENV[@]}" roscore -p "$IMT_MASTER_PORT" >>"$logs/roscore.out" 2>&1 &
+    pid=$!
+    imt_pids_ref+=("$pid")
+    for _ in $(seq 100); do
+      "${IMT_CHILD_ENV[@]}" /usr/bin/python3 -c 'import rosgraph, sys; sys.exit(not rosgraph.is_master_online())' \
+        2>/dev/null && return 0
+      if ! kill -0 "$pid" 2>/dev/null; then
+        imt_log "roscore exited (try $try of 3): $(tail -n 3 "$logs/roscore.out")"
+        continue 2
+      fi
+      sleep 0.2
+    done
+    imt_log "roscore did not come up on port $IMT_MASTER_PORT within 20 s (see $logs/roscore.out)"
+    return 1
   done
-  imt_log "roscore did not come up on port $IMT_MASTER_PORT within 20 s (see $logs/roscore.out)"
   return 1
 }
 

@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
-# The core and io libraries and their tests built with AddressSanitizer and
-# UBSan (CMake option IMT_SANITIZE, in _build_sanitize/, git-ignored) and run:
+# The core, io and sim libraries built with AddressSanitizer and UBSan (CMake
+# option IMT_SANITIZE, in _build_sanitize/, git-ignored) and their tests run
+# on them (the tests' own code is not instrumented: CMake's imt_unsanitized):
 # any sanitizer report, or a failing test, fails the run.
 #   scripts/sanitize.sh [--all] [gtest filter]
 # By default the quick tests: every test_io test, and the test_core tests

@@ -8,7 +8,8 @@
 // gray frames, as three channels). Scores (OTB definitions,
 // frames from the second; a lost region scores IoU 0): success AUC, mean
 // IoU, precision at 20 px, and frames/s (tracking only, decoding excluded).
-// Single-threaded (cv::setNumThreads(1)). Each tracker is timed on a warm
+// Single-threaded (cv::setNumThreads(1); --threads N: OpenCV's parallel loops
+// on N threads, for every tracker). Each tracker is timed on a warm
 // heap: on this project's virtual machines a page's first write costs about
 // 12 us, and memory the allocator hands back to the system and takes again
 // is written for the first time again (CSRT alone in a fresh process: 22
@@ -16,7 +17,7 @@
 // what is freed (mallopt below), ours gets one untimed run of each sequence
 // first (--cold: none), and the peers run after it, on the memory it freed.
 //
-//   make -C _build benchmarks && taskset -c 0 _build/benchmark/benchmark_region_real [--ours-only] [--no-appearance] [--set option=value] [--trace] [--trace-peers] [--peers-gray] [--starts N] [--per-start] [--stride N] [--mid] [--cold] [sequence...]
+//   make -C _build benchmarks && taskset -c 0 _build/benchmark/benchmark_region_real [--ours-only] [--no-appearance] [--set option=value] [--trace] [--trace-peers] [--peers-gray] [--starts N] [--per-start] [--stride N] [--mid] [--cold] [--threads N] [sequence...]
 #include "instant_motion_tracking/core/tracking_session.h"
 #include "instant_motion_tracking/io/config.h"
 #include "set_option.h"
@@ -257,7 +258,7 @@ Halves runPeerMid(const imt::test::BoxSequence& seq, const std::vector<cv::Mat>&
 constexpr char kUsage[] =
     "usage: benchmark_region_real [--ours-only] [--no-appearance] [--set option=value] [--trace] [--trace-peers]\n"
     "                             [--peers-gray] [--starts N] [--per-start] [--stride N] [--mid] [--cold]\n"
-    "                             [sequence...]\n"
+    "                             [--threads N] [sequence...]\n"
     "  --ours-only       leave out OpenCV's KCF and CSRT\n"
     "  --no-appearance   our tracker on motion data alone (no look, no own corners)\n"
     "  --set name=value  a region_tracking option, section.name=value another section's (as in config YAML)\n"
@@ -272,6 +273,7 @@ constexpr char kUsage[] =
     "                    backwards; ours offline, as track_bag) and after it scored apart\n"
     "  --cold            no untimed warm-up run of ours on each sequence first (its first run's\n"
     "                    frames/s then include the faults of a fresh process's memory)\n"
+    "  --threads N       OpenCV's parallel loops on N threads, for every tracker (default 1)\n"
     "  sequence          only these (names as in the table; default every one found)\n"
     "Reads ../shared/data beside the package, or $IMT_SHARED_DATA.\n";
 
@@ -283,7 +285,7 @@ int main(int argc, char** argv) {
   mallopt(M_MMAP_THRESHOLD, 32 << 20);
   mallopt(M_TRIM_THRESHOLD, -1);
   bool ours_only = false, mid_mode = false, peers_gray = false, per_start = false, cold = false;
-  int starts = 1, stride = 1;
+  int starts = 1, stride = 1, threads = 1;
   std::set<std::string> only;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
@@ -307,6 +309,14 @@ int main(int argc, char** argv) {
         std::fprintf(stderr, "--stride: every Nth frame, N from 1 to 10\n");
         return 2;
       }
+    }
+    else if (a == "--threads" && i + 1 < argc) {
+      threads = std::atoi(argv[++i]);
+      if (threads < 1 || threads > 64) {
+        std::fprintf(stderr, "--threads: OpenCV's threads, 1 to 64\n");
+        return 2;
+      }
+      cv::setNumThreads(threads);
     }
     else if (a == "--starts" && i + 1 < argc) {
       starts = std::atoi(argv[++i]);
@@ -341,7 +351,8 @@ int main(int argc, char** argv) {
       return 2;
     }
   }
-  std::printf("Region tracking on real video (%s), one thread, %s box given", dir.c_str(),
+  std::printf("Region tracking on real video (%s), %s, %s box given", dir.c_str(),
+              threads == 1 ? "one thread" : (std::to_string(threads) + " threads").c_str(),
               mid_mode ? "the middle frame's (halves scored apart)" : "first frame's");
   if (starts > 1) std::printf(" (means of %d runs from it and nudged copies)", starts);
   if (stride > 1) std::printf("; every %d%s frame", stride, stride == 2 ? "nd" : stride == 3 ? "rd" : "th");

@@ -48,7 +48,8 @@ PY
 # extra ctest arguments).
 if [ $# -eq 0 ] && [ "${IMT_SANITIZE_TESTS:-1}" != 0 ]; then
   sanitize_status=0
-  "$IMT_ROOT/scripts/sanitize.sh" >"$IMT_BUILD_DIR/sanitize.log" 2>&1 || sanitize_status=$?
+  # --with-tools: fuzz.sh's track_bag and make_scene built in the same goal.
+  "$IMT_ROOT/scripts/sanitize.sh" --with-tools >"$IMT_BUILD_DIR/sanitize.log" 2>&1 || sanitize_status=$?
   cat "$IMT_BUILD_DIR/sanitize.log"
   stage_done "sanitizers (build and tests)"
   junit_case sanitize CoreAndIoTestsUnderAsanAndUbsan "$sanitize_status" \

@@ -17,7 +17,7 @@
 // what is freed (mallopt below), ours gets one untimed run of each sequence
 // first (--cold: none), and the peers run after it, on the memory it freed.
 //
-//   make -C _build benchmarks && taskset -c 0 _build/benchmark/benchmark_region_real [--ours-only] [--no-appearance] [--set option=value] [--trace] [--trace-peers] [--peers-gray] [--starts N] [--per-start] [--stride N] [--mid] [--cold] [--threads N] [sequence...]
+//   make -C _build benchmarks && taskset -c 0 _build/benchmark/benchmark_region_real [--ours-only] [--no-appearance] [--set option=value] [--trace] [--trace-peers] [--peers-gray] [--starts N] [--per-start] [--stride N] [--mid] [--cold] [--threads N] [--stages] [sequence...]
 #include "instant_motion_tracking/core/tracking_session.h"
 #include "instant_motion_tracking/io/config.h"
 #include "set_option.h"
@@ -117,10 +117,21 @@ bool g_trace_peers = false;
 // name=value (a region_tracking option, read as config YAML is).
 imt::Config g_config;
 
+// --stages: our runs' wall time per stage of the session (motion analysis,
+// region tracking, ...), summed over the timed runs of each sequence (the
+// warm-up left out), printed after the table.
+bool g_stages = false;
+std::map<std::string, imt::StageTimes> g_stage_times;
+void addStages(const std::string& sequence, const imt::StageTimes& t) {
+  imt::StageTimes& sum = g_stage_times[sequence];
+  for (const auto& [stage, seconds] : t.seconds) sum.seconds[stage] += seconds;
+  sum.frames += t.frames;
+}
+
 Row runOurs(const imt::test::BoxSequence& seq, const std::vector<cv::Mat>& gray, const cv::Rect2d& start) {
   imt::TrackingSession session(g_config.pipeline, imt::TrackingSession::Mode::kLive);
   uint32_t id = 0;
-  return run(seq, gray, [&](int f, cv::Rect2d* box) {
+  const Row row = run(seq, gray, [&](int f, cv::Rect2d* box) {
     session.analyze(gray[f - 1], seq.stamp(f));
     session.advance();
     std::string err;
@@ -142,6 +153,8 @@ Row runOurs(const imt::test::BoxSequence& seq, const std::vector<cv::Mat>& gray,
         }
     return false;
   });
+  addStages(seq.name(), session.times());
+  return row;
 }
 
 // --mid: the box is given at the middle frame (the first scored one from
@@ -258,7 +271,7 @@ Halves runPeerMid(const imt::test::BoxSequence& seq, const std::vector<cv::Mat>&
 constexpr char kUsage[] =
     "usage: benchmark_region_real [--ours-only] [--no-appearance] [--set option=value] [--trace] [--trace-peers]\n"
     "                             [--peers-gray] [--starts N] [--per-start] [--stride N] [--mid] [--cold]\n"
-    "                             [--threads N] [sequence...]\n"
+    "                             [--threads N] [--stages] [sequence...]\n"
     "  --ours-only       leave out OpenCV's KCF and CSRT\n"
     "  --no-appearance   our tracker on motion data alone (no look, no own corners)\n"
     "  --set name=value  a region_tracking option, section.name=value another section's (as in config YAML)\n"
@@ -274,6 +287,8 @@ constexpr char kUsage[] =
     "  --cold            no untimed warm-up run of ours on each sequence first (its first run's\n"
     "                    frames/s then include the faults of a fresh process's memory)\n"
     "  --threads N       OpenCV's parallel loops on N threads, for every tracker (default 1)\n"
+    "  --stages          our time per stage of the session (motion analysis, region tracking),\n"
+    "                    ms a frame, after the table (runs from the first frame's box)\n"
     "  sequence          only these (names as in the table; default every one found)\n"
     "Reads ../shared/data beside the package, or $IMT_SHARED_DATA.\n";
 
@@ -302,6 +317,7 @@ int main(int argc, char** argv) {
     else if (a == "--peers-gray") peers_gray = true;
     else if (a == "--mid") mid_mode = true;
     else if (a == "--cold") cold = true;
+    else if (a == "--stages") g_stages = true;
     else if (a == "--per-start") per_start = true;
     else if (a == "--stride" && i + 1 < argc) {
       stride = std::atoi(argv[++i]);
@@ -395,6 +411,7 @@ int main(int argc, char** argv) {
       if (mid_mode) runOursMid(seq, gray, seq.middleFrame(), seq.box(seq.middleFrame()));
       else runOurs(seq, gray, seq.box(1));
       g_trace = trace;
+      g_stage_times.erase(seq.name());
     }
     if (mid_mode) {
       const int mid = seq.middleFrame();
@@ -465,6 +482,16 @@ int main(int argc, char** argv) {
     std::printf(" %.3f | %.3f | %.1f |\n", m.iou, m.p20, m.fps);
   }
   if (per_start) std::printf("\nSuccess AUC of each run (the first from the box given):\n%s", per_start_lines.c_str());
+  if (g_stages && !g_stage_times.empty()) {
+    std::printf("\nOur time per stage of the session, ms a frame (its frames/s above also counts the calls'"
+                " own overhead):\n");
+    for (const auto& [sequence, t] : g_stage_times) {
+      std::printf("- %s:", sequence.c_str());
+      for (const auto& [stage, seconds] : t.seconds)
+        std::printf(" %s %.3f", stage.c_str(), t.frames > 0 ? 1e3 * seconds / t.frames : 0.0);
+      std::printf("\n");
+    }
+  }
 #ifndef IMT_HAVE_OPENCV_TRACKING
   std::printf("(OpenCV tracking module not found: KCF/CSRT rows skipped; install libopencv-contrib-dev)\n");
 #endif

@@ -47,17 +47,20 @@ PY
 # each. IMT_SANITIZE_TESTS=0 skips both, IMT_FUZZ_CASES=0 the second (as do
 # extra ctest arguments).
 if [ $# -eq 0 ] && [ "${IMT_SANITIZE_TESTS:-1}" != 0 ]; then
+  # 300 cases: all four kinds of mutation about 75 times each, in a ~30-minute
+  # budget for the whole of test.sh on 2 cores (scripts/fuzz.sh alone: 500).
+  fuzz_cases=${IMT_FUZZ_CASES:-300}
   sanitize_status=0
-  # --with-tools: fuzz.sh's track_bag and make_scene built in the same goal.
-  "$IMT_ROOT/scripts/sanitize.sh" --with-tools >"$IMT_BUILD_DIR/sanitize.log" 2>&1 || sanitize_status=$?
+  # --with-tools: fuzz.sh's track_bag and make_scene built in the same goal
+  # (when it runs).
+  with_tools=()
+  [ "$fuzz_cases" -gt 0 ] && with_tools=(--with-tools)
+  "$IMT_ROOT/scripts/sanitize.sh" "${with_tools[@]}" >"$IMT_BUILD_DIR/sanitize.log" 2>&1 || sanitize_status=$?
   cat "$IMT_BUILD_DIR/sanitize.log"
   stage_done "sanitizers (build and tests)"
   junit_case sanitize CoreAndIoTestsUnderAsanAndUbsan "$sanitize_status" \
     "scripts/sanitize.sh failed (exit $sanitize_status); see sanitize.log"
   [ "$sanitize_status" -eq 0 ] || status=1
-  # 300 cases: all four kinds of mutation about 75 times each, in a ~30-minute
-  # budget for the whole of test.sh on 2 cores (scripts/fuzz.sh alone: 500).
-  fuzz_cases=${IMT_FUZZ_CASES:-300}
   if [ "$fuzz_cases" -gt 0 ]; then
     fuzz_status=0
     "$IMT_ROOT/scripts/fuzz.sh" "$fuzz_cases" >"$IMT_BUILD_DIR/fuzz.log" 2>&1 || fuzz_status=$?

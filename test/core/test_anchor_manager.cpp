@@ -16,6 +16,8 @@
 #include <cstdlib>
 #include <functional>
 #include <map>
+#include <string>
+#include <vector>
 
 #include <algorithm>
 #include <cstdio>
@@ -309,6 +311,47 @@ MotionData withoutCameraModel(MotionData md) {
 
 enum class OutOfView { kVisual, kNoCameraModel, kNoCameraModelNoFallback };
 
+// The last walk's motion data, frame by frame. A test that walks one scene
+// several times (the IMU late, biased, mounted otherwise: none of it in the
+// frames) renders and analyses its frames once: the same frames give the same
+// motion data. Keyed by the options that shape the frames; the key's frames
+// 0 and last are kept, and a walk uses the data only when its own two frames
+// are the same to the pixel (an option the key left out would differ there).
+struct WalkMotion {
+  std::string key;
+  cv::Mat first, last;
+  std::vector<MotionData> frames;
+};
+WalkMotion& lastWalkMotion() {
+  static WalkMotion cache;
+  return cache;
+}
+
+std::string walkKey(const SceneOptions& o) {
+  std::string key = o.preset + "|" + o.trajectory + "|" + o.distortion_model;
+  char text[512];
+  std::snprintf(text, sizeof(text), "|%.17g %.17g %d %d %.17g %llu %.17g %d %.17g %.17g %.17g %.17g %d %.17g %.17g %zu %zu",
+                o.duration, o.fps, o.width, o.height, o.hfov_deg, static_cast<unsigned long long>(o.seed),
+                o.start_time, o.supersample, o.noise_sigma, o.brightness_amplitude, o.brightness_period, o.exposure,
+                o.blur_samples, o.void_gray, o.trajectory_amplitude, o.planes.size(), o.anchors.size());
+  key += text;
+  for (double d : o.distortion) key += " " + std::to_string(d);
+  for (const std::string& f : o.texture_files) key += "|" + f;
+  return key;
+}
+
+// The walk's motion data from the cache, when it holds this scene's (see WalkMotion).
+const std::vector<MotionData>* cachedWalkMotion(const SceneGenerator& scene) {
+  const WalkMotion& c = lastWalkMotion();
+  const int n = scene.frameCount();
+  if (c.key != walkKey(scene.options()) || static_cast<int>(c.frames.size()) != n || n == 0) return nullptr;
+  const auto same = [](const cv::Mat& a, const cv::Mat& b) {
+    return a.size() == b.size() && a.type() == b.type() && cv::norm(a, b, cv::NORM_INF) == 0;
+  };
+  if (!same(scene.renderFrame(0), c.first) || !same(scene.renderFrame(n - 1), c.last)) return nullptr;
+  return &c.frames;
+}
+
 // What a walk changes from floor_walk's defaults.
 struct WalkSetup {
   std::function<void(SceneOptions*)> adjust;  // the scene's options
@@ -347,6 +390,8 @@ void runWalk(WalkFigures* out, OutOfView mode = OutOfView::kVisual,
   for (ImuSample& s : imu) s.stamp += setup.imu_late;
   size_t next_imu = 0;
   MotionAnalyzer analyzer{MotionAnalysisOptions()};
+  const std::vector<MotionData>* cached = cachedWalkMotion(*scene);
+  std::vector<MotionData> analysed;  // this walk's, for the cache (when it was not there)
   std::vector<int> pending;
   std::string err;
   const FrameTruth f0 = scene->frameTruth(0), f30 = scene->frameTruth(30);
@@ -359,7 +404,8 @@ void runWalk(WalkFigures* out, OutOfView mode = OutOfView::kVisual,
     // them on every third frame (as a late driver would).
     while (next_imu < imu.size() && imu[next_imu].stamp <= t + (i % 3 == 1 ? -0.02 : 0.006))
       ASSERT_NE(anchors.addImu(imu[next_imu++]), ImuInput::kReset);
-    MotionData md = analyzer.process(scene->renderFrame(i), t);
+    MotionData md = cached ? (*cached)[i] : analyzer.process(scene->renderFrame(i), t);
+    if (!cached) analysed.push_back(md);
     if (mode != OutOfView::kVisual && !scene->frameTruth(i).anchors[0].in_view) md = withoutCameraModel(md);
     regions.update(md);
     anchors.update();
@@ -429,6 +475,10 @@ void runWalk(WalkFigures* out, OutOfView mode = OutOfView::kVisual,
                       s.T_cam_anchor.translation().normalized().z());
       }
     }
+  }
+  if (!cached) {
+    const int n = scene->frameCount();
+    lastWalkMotion() = {walkKey(scene->options()), scene->renderFrame(0), scene->renderFrame(n - 1), std::move(analysed)};
   }
   out->disagreement = anchors.rotationDisagreement();
   out->time_offset = anchors.timeOffset();

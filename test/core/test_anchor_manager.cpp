@@ -391,7 +391,7 @@ void runWalk(WalkFigures* out, OutOfView mode = OutOfView::kVisual,
   size_t next_imu = 0;
   MotionAnalyzer analyzer{MotionAnalysisOptions()};
   const std::vector<MotionData>* cached = cachedWalkMotion(*scene);
-  std::vector<MotionData> analysed;  // this walk's, for the cache (when it was not there)
+  WalkMotion analysed;  // this walk's, for the cache (when it was not there)
   std::vector<int> pending;
   std::string err;
   const FrameTruth f0 = scene->frameTruth(0), f30 = scene->frameTruth(30);
@@ -404,8 +404,16 @@ void runWalk(WalkFigures* out, OutOfView mode = OutOfView::kVisual,
     // them on every third frame (as a late driver would).
     while (next_imu < imu.size() && imu[next_imu].stamp <= t + (i % 3 == 1 ? -0.02 : 0.006))
       ASSERT_NE(anchors.addImu(imu[next_imu++]), ImuInput::kReset);
-    MotionData md = cached ? (*cached)[i] : analyzer.process(scene->renderFrame(i), t);
-    if (!cached) analysed.push_back(md);
+    MotionData md;
+    if (cached) {
+      md = (*cached)[i];
+    } else {
+      const cv::Mat frame = scene->renderFrame(i);
+      md = analyzer.process(frame, t);
+      analysed.frames.push_back(md);
+      if (i == 0) analysed.first = frame;
+      if (i == scene->frameCount() - 1) analysed.last = frame;
+    }
     if (mode != OutOfView::kVisual && !scene->frameTruth(i).anchors[0].in_view) md = withoutCameraModel(md);
     regions.update(md);
     anchors.update();
@@ -477,8 +485,8 @@ void runWalk(WalkFigures* out, OutOfView mode = OutOfView::kVisual,
     }
   }
   if (!cached) {
-    const int n = scene->frameCount();
-    lastWalkMotion() = {walkKey(scene->options()), scene->renderFrame(0), scene->renderFrame(n - 1), std::move(analysed)};
+    analysed.key = walkKey(scene->options());
+    lastWalkMotion() = std::move(analysed);
   }
   out->disagreement = anchors.rotationDisagreement();
   out->time_offset = anchors.timeOffset();

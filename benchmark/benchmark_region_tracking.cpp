@@ -3,9 +3,10 @@
 // (motion analysis + region tracking) with 1, 4, 10 and 100 regions, and
 // OpenCV's KCF and CSRT trackers (opencv_contrib) on the same 4 regions.
 // Prints a table: frames per second of the whole pipeline and mean IoU
-// against the generator's ground truth. Single-threaded (cv::setNumThreads(1)).
+// against the generator's ground truth. Single-threaded (cv::setNumThreads(1);
+// --threads N: OpenCV's parallel loops on N threads, for every tracker).
 //
-//   make -C _build benchmarks && taskset -c 0 _build/benchmark/benchmark_region_tracking [--set option=value] [--ours-only] [--regions N] [seconds]
+//   make -C _build benchmarks && taskset -c 0 _build/benchmark/benchmark_region_tracking [--set option=value] [--ours-only] [--regions N] [--threads N] [seconds]
 //
 // --set name=value changes a region_tracking option of the first rows (read
 // as config YAML is), to see what a part of the tracker costs; --ours-only
@@ -68,10 +69,13 @@ constexpr char kUsage[] =
     "  --set name=value  a region_tracking option of our rows, section.name=value another section's (as in config YAML)\n"
     "  --ours-only       leave out OpenCV's KCF and CSRT (a minute of CSRT)\n"
     "  --regions N       our rows with N regions only (1..1000), after a warm-up with one\n"
+    "  --threads N       OpenCV's parallel loops on N threads, for every tracker (default 1; our regions\n"
+    "                    step in parallel on them)\n"
     "  seconds           length of the rendered `cards` scene (default 10)\n";
 
 int main(int argc, char** argv) {
   cv::setNumThreads(1);
+  int threads = 1;
   double seconds = 10.0;
   bool peers = true;
   std::vector<int> counts = {1, 4, 10, 100};
@@ -89,6 +93,13 @@ int main(int argc, char** argv) {
         return 2;
       }
       counts = {c};
+    } else if (a == "--threads" && i + 1 < argc) {
+      threads = std::atoi(argv[++i]);
+      if (threads < 1 || threads > 64) {
+        std::fprintf(stderr, "--threads: OpenCV's threads, 1 to 64 (got %s)\n", argv[i]);
+        return 2;
+      }
+      cv::setNumThreads(threads);
     } else if (a == "--help" || a == "-h") {
       std::printf("%s", kUsage);
       return 0;
@@ -223,8 +234,8 @@ int main(int argc, char** argv) {
   std::printf("(OpenCV tracking module not found: KCF/CSRT rows skipped; install libopencv-contrib-dev)\n");
 #endif
 
-  std::printf("\nRegion tracking, cards scene %dx%d, %d frames (from frame %d), one thread\n", size.width,
-              size.height, n, start);
+  std::printf("\nRegion tracking, cards scene %dx%d, %d frames (from frame %d), %s\n", size.width, size.height, n,
+              start, threads == 1 ? "one thread" : (std::to_string(threads) + " threads").c_str());
   std::printf("| tracker | regions | frames/s | ms/frame | mean IoU (scored regions) |\n|---|---|---|---|---|\n");
   for (const Row& r : rows)
     std::printf("| %s | %d | %.1f | %.2f | %.3f |\n", r.name.c_str(), r.regions, r.fps, 1000 / r.fps, r.iou);

@@ -6,6 +6,8 @@
 #include "region_features.h"
 #include "region_fit.h"
 
+#include <opencv2/core/utility.hpp>
+
 #include <algorithm>
 #include <cmath>
 #include <optional>
@@ -114,12 +116,73 @@ void RegionManager::stepTogether(const std::vector<Region*>& regions, uint64_t s
     lo = std::min(lo, r->states.rbegin()->first);
     hi = std::max(hi, r->states.begin()->first);
   }
-  for (uint64_t s = lo; s < seq; ++s)
+  std::vector<Region*> batch;
+  for (uint64_t s = lo; s < seq; ++s) {
+    batch.clear();
     for (Region* r : regions)
-      if (r->states.rbegin()->first == s) stateAt(*r, s + 1);
-  for (uint64_t s = hi; s > seq; --s)
+      if (r->states.rbegin()->first == s) batch.push_back(r);
+    stepBatch(batch, s, s + 1);
+  }
+  for (uint64_t s = hi; s > seq; --s) {
+    batch.clear();
     for (Region* r : regions)
-      if (r->states.begin()->first == s) stateAt(*r, s - 1);
+      if (r->states.begin()->first == s) batch.push_back(r);
+    stepBatch(batch, s, s - 1);
+  }
+}
+
+RegionManager::StepInputs RegionManager::stepInputs(const Region& r, uint64_t from, uint64_t to) {
+  StepInputs in;
+  in.regions = sharing(r, to);
+  // The two frames' shared pyramids, for a region with own features the
+  // pyramids serve (those in a large box use a downscaled crop of their own).
+  const RegionState& state = r.states.at(from);
+  if (!state.own_points.empty() && ownFeaturesAtFullResolution(state.box, options_.region_feature_px) &&
+      sharesPyramids(r, to)) {
+    in.pyramids.image = pyramidOf(to);
+    in.pyramids.state_image = pyramidOf(from);
+  }
+  return in;
+}
+
+RegionState RegionManager::step(const Region& r, uint64_t from, uint64_t to, const MotionData& md,
+                                const cv::Mat& image, const cv::Mat& state_image, const StepInputs& in,
+                                std::optional<RegionTracker>* tracker) const {
+  // The tracker for a step into frame `to`: its look's turns come as often
+  // as the regions sharing that frame make them.
+  if (!*tracker || (*tracker)->regions() != in.regions) tracker->emplace(options_, cache_.imageSize(), in.regions);
+  const RegionState& state = r.states.at(from);
+  if (to > from) return (*tracker)->step(state, md, Direction::kForward, 0, image, state_image, in.pyramids);
+  return (*tracker)
+      ->step(state.reversed(), md, Direction::kBackward, cache_.at(to).stamp, image, state_image, in.pyramids)
+      .reversed();
+}
+
+void RegionManager::stepBatch(const std::vector<Region*>& batch, uint64_t from, uint64_t to) {
+  if (batch.empty()) return;
+  // What the steps share is gathered here, on this thread: the memo of the
+  // regions given, the pyramids, the images (a source may read them again),
+  // the fallback's camera motion. Then each region steps on its own: a step
+  // reads only its region's state and these, so the regions step side by
+  // side on OpenCV's threads with the same results as one after another.
+  MotionData scratch;
+  const MotionData& md = frame(std::max(from, to), &scratch);
+  const cv::Mat image = imageOf(to), state_image = imageOf(from);
+  std::vector<StepInputs> inputs;
+  inputs.reserve(batch.size());
+  for (const Region* r : batch) inputs.push_back(stepInputs(*r, from, to));
+  std::vector<RegionState> next(batch.size());
+  const auto run = [&](const cv::Range& range) {
+    std::optional<RegionTracker> tracker;
+    for (int i = range.start; i < range.end; ++i)
+      next[i] = step(*batch[i], from, to, md, image, state_image, inputs[i], &tracker);
+  };
+  const cv::Range all(0, static_cast<int>(batch.size()));
+  if (batch.size() > 1 && cv::getNumThreads() > 1)
+    cv::parallel_for_(all, run);
+  else
+    run(all);
+  for (size_t i = 0; i < batch.size(); ++i) batch[i]->states[to] = std::move(next[i]);
 }
 
 void RegionManager::countGiven(const Region& r, int sign) {
@@ -179,37 +242,15 @@ const std::vector<cv::Mat>* RegionManager::pyramidOf(uint64_t seq) {
 const RegionState& RegionManager::stateAt(Region& r, uint64_t seq) {
   auto& st = r.states;
   MotionData scratch;
-  // The tracker for a step into frame `to`: its look's turns come as often
-  // as the regions sharing that frame make them.
   std::optional<RegionTracker> tracker;
-  const auto trackerFor = [&](uint64_t to) -> const RegionTracker& {
-    const size_t n = sharing(r, to);
-    if (!tracker || tracker->regions() != n) tracker.emplace(options_, cache_.imageSize(), n);
-    return *tracker;
-  };
-  // The two frames' shared pyramids, for a region with own features the
-  // pyramids serve (those in a large box use a downscaled crop of their own).
-  const auto pyramids = [&](const RegionState& state, uint64_t to, uint64_t from) {
-    FramePyramids p;
-    if (state.own_points.empty() || !ownFeaturesAtFullResolution(state.box, options_.region_feature_px) ||
-        !sharesPyramids(r, to))
-      return p;
-    p.image = pyramidOf(to);
-    p.state_image = pyramidOf(from);
-    return p;
+  const auto stepTo = [&](uint64_t from, uint64_t to) {
+    st[to] = step(r, from, to, frame(std::max(from, to), &scratch), imageOf(to), imageOf(from),
+                  stepInputs(r, from, to), &tracker);
   };
   // Forward from the newest known state.
-  for (uint64_t s = st.rbegin()->first; s < seq; ++s) {
-    st[s + 1] = trackerFor(s + 1).step(st[s], frame(s + 1, &scratch), Direction::kForward, 0, imageOf(s + 1),
-                                       imageOf(s), pyramids(st[s], s + 1, s));
-  }
+  for (uint64_t s = st.rbegin()->first; s < seq; ++s) stepTo(s, s + 1);
   // Backward from the oldest known state.
-  for (uint64_t s = st.begin()->first; s > seq; --s) {
-    st[s - 1] = trackerFor(s - 1)
-                    .step(st[s].reversed(), frame(s, &scratch), Direction::kBackward, cache_.at(s - 1).stamp,
-                          imageOf(s - 1), imageOf(s), pyramids(st[s], s - 1, s))
-                    .reversed();
-  }
+  for (uint64_t s = st.begin()->first; s > seq; --s) stepTo(s, s - 1);
   return st.at(seq);
 }
 

@@ -18,6 +18,9 @@
 // AnchorManager installs) stands in for frames whose own camera model is
 // invalid, so regions out of view stay predicted through them.
 // Threading: not thread-safe; callers serialise (the nodelet holds a mutex).
+// Inside, the regions stepping into the same frame step side by side on
+// OpenCV's threads (cv::setNumThreads), with the states of one step after
+// another to the bit.
 #pragma once
 
 #include "instant_motion_tracking/core/motion_cache.h"
@@ -27,6 +30,7 @@
 
 #include <functional>
 #include <map>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -97,6 +101,22 @@ class RegionManager {
   // Steps `regions` to frame `seq` together, frame by frame (each frame's
   // shared pyramid built once for them all).
   void stepTogether(const std::vector<Region*>& regions, uint64_t seq);
+  // What a step of `r` from frame `from` into `to` takes besides its state
+  // and the two frames: the regions sharing `to`, the shared pyramids.
+  struct StepInputs {
+    size_t regions = 1;
+    FramePyramids pyramids;
+  };
+  StepInputs stepInputs(const Region& r, uint64_t from, uint64_t to);
+  // One step of `r` from its state at `from` into `to` (forward or
+  // backward): `md` is the later frame's motion data, `image` the frame of
+  // `to`, `state_image` that of `from`; `tracker` is made again only when
+  // the regions sharing the frame change. Reads only `r` and the cache.
+  RegionState step(const Region& r, uint64_t from, uint64_t to, const MotionData& md, const cv::Mat& image,
+                   const cv::Mat& state_image, const StepInputs& in, std::optional<RegionTracker>* tracker) const;
+  // Steps every region of `batch` (each with its state at `from`) into `to`,
+  // side by side on OpenCV's threads when there are several of both.
+  void stepBatch(const std::vector<Region*>& batch, uint64_t from, uint64_t to);
   std::vector<Region*> all();
   // How many regions share frame `seq` for `r`: r and the others given at
   // or before it.

@@ -6,12 +6,14 @@
 // against the generator's ground truth. Single-threaded (cv::setNumThreads(1);
 // --threads N: OpenCV's parallel loops on N threads, for every tracker).
 //
-//   make -C _build benchmarks && taskset -c 0 _build/benchmark/benchmark_region_tracking [--set option=value] [--ours-only] [--regions N] [--threads N] [seconds]
+//   make -C _build benchmarks && taskset -c 0 _build/benchmark/benchmark_region_tracking [--set option=value] [--ours-only] [--regions N] [--threads N] [--with-target] [seconds]
 //
 // --set name=value changes a region_tracking option of the first rows (read
 // as config YAML is), to see what a part of the tracker costs; --ours-only
 // leaves out the peers (a minute of CSRT); --regions N runs our rows with N
-// regions only (after a warm-up run with one), e.g. to profile that count.
+// regions only (after a warm-up run with one), e.g. to profile that count;
+// --with-target also tracks the static patch as a planar target in our
+// rows (regions and a target in one session: what the target adds).
 #include "instant_motion_tracking/core/motion/motion_analysis.h"
 #include "../test/box_metrics.h"
 #include "instant_motion_tracking/core/tracking_session.h"
@@ -24,6 +26,7 @@
 #include <opencv2/tracking.hpp>
 #endif
 
+#include <array>
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
@@ -65,12 +68,13 @@ struct IouAccumulator {
 }  // namespace
 
 constexpr char kUsage[] =
-    "usage: benchmark_region_tracking [--set option=value] [--ours-only] [--regions N] [seconds]\n"
+    "usage: benchmark_region_tracking [--set option=value] [--ours-only] [--regions N] [--threads N] [--with-target] [seconds]\n"
     "  --set name=value  a region_tracking option of our rows, section.name=value another section's (as in config YAML)\n"
     "  --ours-only       leave out OpenCV's KCF and CSRT (a minute of CSRT)\n"
     "  --regions N       our rows with N regions only (1..1000), after a warm-up with one\n"
     "  --threads N       OpenCV's parallel loops on N threads, for every tracker (default 1; our regions\n"
     "                    step in parallel on them)\n"
+    "  --with-target     our rows also track the static patch as a planar target (its cost)\n"
     "  seconds           length of the rendered `cards` scene (default 10)\n";
 
 int main(int argc, char** argv) {
@@ -78,6 +82,7 @@ int main(int argc, char** argv) {
   int threads = 1;
   double seconds = 10.0;
   bool peers = true;
+  bool with_target = false;
   std::vector<int> counts = {1, 4, 10, 100};
   imt::Config config;  // the first rows' options: the defaults, with --set
   for (int i = 1; i < argc; ++i) {
@@ -86,6 +91,8 @@ int main(int argc, char** argv) {
       if (!imt::bench::setOption(argv[++i], &config)) return 2;
     } else if (a == "--ours-only") {
       peers = false;
+    } else if (a == "--with-target") {
+      with_target = true;
     } else if (a == "--regions" && i + 1 < argc) {
       const int c = std::atoi(argv[++i]);
       if (c < 1 || c > 1000) {
@@ -180,6 +187,7 @@ int main(int argc, char** argv) {
       std::vector<imt::RegionState> states;
       for (imt::FrameResult& r : session.takeResults()) states = std::move(r.regions);
       if (k == 0) {
+        uint32_t id_unused;
         std::mt19937 rng(1);
         std::uniform_real_distribution<double> ux(0, size.width - 60), uy(0, size.height - 50);
         for (int r = 0; r < count; ++r) {
@@ -188,6 +196,15 @@ int main(int argc, char** argv) {
           if (r < static_cast<int>(scored.size())) box = region(truth[0], scored[r])->box;
           session.addRegion(0, 0, box, &id, &err);
           if (r < static_cast<int>(scored.size())) truth_id[id] = scored[r];
+        }
+        if (with_target) {
+          // The static patch (scored region 4) as a planar target too, its
+          // size in metres made up: its cost is what is measured.
+          const cv::Rect2d p = region(truth[0], scored[3])->box;
+          const std::array<cv::Point2d, 4> corners = {p.tl(), cv::Point2d(p.br().x, p.y), p.br(),
+                                                      cv::Point2d(p.x, p.br().y)};
+          if (!session.addPlanarTarget(0, 0, corners, 0.5, 0.4, &id_unused, &err))
+            std::fprintf(stderr, "planar target: %s\n", err.c_str());
         }
         session.seekRegions(stamps[k], {}, &states, &err);
       }

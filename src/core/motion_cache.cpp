@@ -27,11 +27,7 @@ cv::Mat MotionCache::image(uint64_t seq) const {
   if (frames_.empty() || seq < first_seq_ || seq > lastSeq()) return cv::Mat();  // not cached
   const cv::Mat& kept = images_[seq - first_seq_];
   if (!kept.empty() || !image_source_) return kept;
-  cv::Mat im;
-  {
-    const std::lock_guard<std::mutex> lock(source_mutex_);
-    im = image_source_(frames_[seq - first_seq_].stamp);
-  }
+  cv::Mat im = image_source_(frames_[seq - first_seq_].stamp);
   if (im.type() != CV_8UC1 || im.size() != size_) return cv::Mat();
   return im;
 }

@@ -3,8 +3,6 @@
 #include "instant_motion_tracking/core/item_requests.h"
 #include "option_checker.h"
 
-#include <opencv2/core/utility.hpp>
-
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -177,36 +175,14 @@ void TrackingSession::trackOldest() {
   FrameResult r;
   // The trackers' copy serves the overlays as well.
   if (trackersUseImages() && !frame.gray.empty()) frame.gray = ownImage(frame.gray);
-  regions_.push(frame.md, trackersUseImages() ? frame.gray : cv::Mat());
+  r.regions = userRegions(regions_.update(frame.md, trackersUseImages() ? frame.gray : cv::Mat()));
   r.reset = regions_.lastReset();
-  double region_seconds = secondsSince(t0), planar_seconds = 0;
-  // The regions and the planar targets read the frame's cache and nothing of
-  // each other's: with both, they step side by side on OpenCV's threads,
-  // each with the same results as alone. Each side's time is its own
-  // stage's (the two overlap). The anchors follow their regions.
-  const auto stepRegions = [&] {
-    const auto start = Clock::now();
-    r.regions = userRegions(regions_.stepToNewest());
-    region_seconds += secondsSince(start);
-  };
-  const auto stepTargets = [&] {
-    const auto start = Clock::now();
-    r.targets = targets_.update();
-    planar_seconds = secondsSince(start);
-  };
-  if (regions_.size() > 0 && targets_.size() > 0 && cv::getNumThreads() > 1) {
-    cv::parallel_for_(cv::Range(0, 2), [&](const cv::Range& range) {
-      for (int i = range.start; i < range.end; ++i) i == 0 ? stepRegions() : stepTargets();
-    });
-  } else {
-    stepRegions();
-    stepTargets();
-  }
-  const auto t1 = Clock::now();
   anchors_->update();
+  const auto t1 = Clock::now();
+  addTime("region_tracking", std::chrono::duration<double>(t1 - t0).count());
+  r.targets = targets_.update();
   const auto t2 = Clock::now();
-  addTime("region_tracking", region_seconds + std::chrono::duration<double>(t2 - t1).count());
-  addTime("planar_tracking", planar_seconds);
+  addTime("planar_tracking", std::chrono::duration<double>(t2 - t1).count());
   if (anchors_->size() > 0) {
     std::string error;  // the frame was just cached: its stamp is always found
     anchors_->statesAt(frame.md.stamp, {}, &r.anchors, &error);

@@ -44,16 +44,6 @@ Rendered render(const std::string& preset, double duration, std::optional<int> s
   return r;
 }
 
-// OpenCV's thread count for a scope.
-class OpenCvThreads {
- public:
-  explicit OpenCvThreads(int n) : saved_(cv::getNumThreads()) { cv::setNumThreads(n); }
-  ~OpenCvThreads() { cv::setNumThreads(saved_); }
-
- private:
-  int saved_;
-};
-
 // What to give: a region, a planar target and an anchor at frame `given`,
 // handed to the live session once frame `asked` has been analysed.
 struct Items {
@@ -312,10 +302,7 @@ TEST(TrackingSession, LiveAndOfflineAgreeOnRegionsAndPlanarTargets) {
   std::map<int, FrameResult> offline;
   // The same code on the same frames in a different order of calls: equal
   // up to nothing (the arithmetic is the same); 1e-9 px leaves room for none
-  // but the last bit. Live, the region and the target step side by side on
-  // OpenCV's threads (three: more than this 2-core machine has), offline
-  // one after the other (TrackingSession::statesAt).
-  const OpenCvThreads threads(3);
+  // but the last bit.
   EXPECT_LT(liveVsOffline("poster_orbit", r, items, o, &offline), 1e-9);
   // A frame the cache dropped is read again: the alignment sees every frame.
   int reread_few = 0, at_few = -1;
@@ -550,6 +537,16 @@ double cardRegionIou(const Rendered& r, const std::map<int, FrameResult>& result
   EXPECT_GT(n, 0);
   return n ? sum / n : 0;
 }
+
+// OpenCV's thread count for a scope.
+class OpenCvThreads {
+ public:
+  explicit OpenCvThreads(int n) : saved_(cv::getNumThreads()) { cv::setNumThreads(n); }
+  ~OpenCvThreads() { cv::setNumThreads(saved_); }
+
+ private:
+  int saved_;
+};
 
 // Beyond appearance_budget (8) the regions take turns at their look, and
 // with many regions' own corners each frame's pyramid is shared: what a

@@ -20,7 +20,6 @@
 
 #include <deque>
 #include <functional>
-#include <mutex>
 #include <string>
 
 namespace imt {
@@ -47,8 +46,7 @@ class MotionCache {
   cv::Mat image(uint64_t seq) const;
   // Where images the cache did not keep are found (offline: read again from
   // the bag): called with the frame's stamp; returns an empty Mat when it
-  // has none. An image of another size than the frames' is not used. Called
-  // one call at a time (the trackers may ask from two threads at once).
+  // has none. An image of another size than the frames' is not used.
   using ImageSource = std::function<cv::Mat(double stamp)>;
   void setImageSource(ImageSource source) { image_source_ = std::move(source); }
   // Bytes of images kept at most (0, the default: none).
@@ -78,7 +76,6 @@ class MotionCache {
   uint64_t first_seq_ = 0;
   cv::Size size_;
   ImageSource image_source_;
-  mutable std::mutex source_mutex_;  // image(): one image_source_ call at a time
 };
 
 }  // namespace imt

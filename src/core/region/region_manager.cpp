@@ -26,11 +26,6 @@ void RegionManager::clear() {
 }
 
 std::vector<RegionState> RegionManager::update(const MotionData& md, const cv::Mat& image) {
-  push(md, image);
-  return stepToNewest();
-}
-
-void RegionManager::push(const MotionData& md, const cv::Mat& image) {
   last_reset_.clear();
   // Regions added since the last frame are tracked to it first: the new
   // frame may push the one they were given at out of the cache.
@@ -41,10 +36,6 @@ void RegionManager::push(const MotionData& md, const cv::Mat& image) {
     given_.clear();
     last_reset_ += "; regions cleared";
   }
-}
-
-std::vector<RegionState> RegionManager::stepToNewest() {
-  if (cache_.empty()) return {};
   const uint64_t seq = cache_.lastSeq();
   stepTogether(all(), seq);
   std::vector<RegionState> out;

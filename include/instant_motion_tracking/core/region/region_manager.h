@@ -51,13 +51,6 @@ class RegionManager {
   // checks see; it is kept in the cache within its image budget (see
   // MotionCache), so regions added in the past and seeks see theirs too.
   std::vector<RegionState> update(const MotionData& md, const cv::Mat& image = cv::Mat());
-  // update() in two halves: push() appends the frame (the regions added
-  // since the last frame tracked to it first, then the cache), and
-  // stepToNewest() advances every region to it. Between the two the cache
-  // is complete: others may read it (the planar targets) while the regions
-  // step, as long as nothing changes the cache or the regions meanwhile.
-  void push(const MotionData& md, const cv::Mat& image = cv::Mat());
-  std::vector<RegionState> stepToNewest();
   void setImageBudget(size_t bytes) { cache_.setImageBudget(bytes); }
   void setImageSource(MotionCache::ImageSource source) { cache_.setImageSource(std::move(source)); }
 

@@ -327,12 +327,7 @@ int main(int argc, char** argv) {
       }
     }
     else if (a == "--threads" && i + 1 < argc) {
-      threads = std::atoi(argv[++i]);
-      if (threads < 1 || threads > 64) {
-        std::fprintf(stderr, "--threads: OpenCV's threads, 1 to 64\n");
-        return 2;
-      }
-      cv::setNumThreads(threads);
+      if (!imt::bench::setThreads(argv[++i], &threads)) return 2;
     }
     else if (a == "--starts" && i + 1 < argc) {
       starts = std::atoi(argv[++i]);

@@ -101,12 +101,7 @@ int main(int argc, char** argv) {
       }
       counts = {c};
     } else if (a == "--threads" && i + 1 < argc) {
-      threads = std::atoi(argv[++i]);
-      if (threads < 1 || threads > 64) {
-        std::fprintf(stderr, "--threads: OpenCV's threads, 1 to 64 (got %s)\n", argv[i]);
-        return 2;
-      }
-      cv::setNumThreads(threads);
+      if (!imt::bench::setThreads(argv[++i], &threads)) return 2;
     } else if (a == "--help" || a == "-h") {
       std::printf("%s", kUsage);
       return 0;

@@ -1,11 +1,16 @@
-// The benchmarks' `--set name=value`: a region_tracking option, or any
-// section's as `section.name=value` (e.g. motion_analysis.max_features=192),
-// read as config YAML is (so names and types are checked as in a config file).
+// The benchmarks' shared options: `--set name=value`, a region_tracking
+// option, or any section's as `section.name=value` (e.g.
+// motion_analysis.max_features=192), read as config YAML is (so names and
+// types are checked as in a config file); and `--threads N`.
 #pragma once
 
 #include "instant_motion_tracking/io/config.h"
 
+#include <opencv2/core.hpp>
+
+#include <cerrno>
 #include <cstdio>
+#include <cstdlib>
 #include <string>
 
 namespace imt {
@@ -25,6 +30,21 @@ inline bool setOption(const std::string& name_value, Config* config) {
   if (loadConfigYaml(section + ": {" + name + value + "}", "--set " + name_value, config, &err)) return true;
   std::fprintf(stderr, "%s\n", err.c_str());
   return false;
+}
+
+// `--threads N`: OpenCV's parallel loops on N threads (1 to 64), for every
+// tracker; false (the reason on stderr) for anything else, "2x" included.
+inline bool setThreads(const char* arg, int* threads) {
+  char* end = nullptr;
+  errno = 0;
+  const long n = std::strtol(arg, &end, 10);
+  if (end == arg || *end != '\0' || errno != 0 || n < 1 || n > 64) {
+    std::fprintf(stderr, "--threads: OpenCV's threads, 1 to 64 (got %s)\n", arg);
+    return false;
+  }
+  *threads = static_cast<int>(n);
+  cv::setNumThreads(*threads);
+  return true;
 }
 
 }  // namespace bench

@@ -502,9 +502,17 @@ TEST(RegionAppearance, ManyRegionsTakeTurnsAtTheirLook) {
     RegionTracker tracker(RegionTrackerOptions(), kSize, regions);
     RegionState s = placed(tracker, img, box);
     std::vector<int> checked;
+    cv::Rect2d put = box;  // where the last check put it
     for (int k = 1; k <= 28; ++k) {
       s = tracker.step(s, emptyMotion(0.033 * k), Direction::kForward, 0, shifted(img, 2 * k, k));
-      if (s.look_age != 0) continue;
+      if (s.look_age != 0) {
+        EXPECT_LT(centreError(s.box, put), 1e-9) << regions << " regions, frame " << k << ": moved unchecked";
+        // 12 frames of (2, 1) px since its check at frame 2: 26.8 px behind
+        // (1 px: the check's rounding).
+        if (k == 14) EXPECT_NEAR(centreError(s.box, box + cv::Point2d(2 * k, k)), std::hypot(24.0, 12.0), 1.0);
+        continue;
+      }
+      put = s.box;
       checked.push_back(k);
       EXPECT_NE(s.status, RegionStatus::kLost) << regions << " regions, frame " << k;
       // The look's match is to the pixel on this texture (1 px: its rounding).

@@ -425,6 +425,8 @@ double hiddenAmong99Again(const Tracked& t, int* n) {
   int hidden_to = -1;
   for (int k = 0; k < frames; ++k)
     if (seenFraction(t.truth[k]) < 0.001) hidden_to = k + 1;
+  EXPECT_GE(hidden_to, 0) << "the target is never hidden";
+  if (hidden_to < 0) return 0;
   const int back = firstWholeFrame(t.truth, hidden_to);
   EXPECT_GE(back, 0) << "the target does not come back";
   if (back < 0) return 0;
@@ -434,9 +436,10 @@ double hiddenAmong99Again(const Tracked& t, int* n) {
   return again;
 }
 
-// The target among 99 other regions must be tracked about as well as alone,
-// through the partial cover at init and through the 2 s hiding (found again
-// later: those searches come every ceil(100 / 8) = 13 frames).
+// The target among 99 other regions, through the partial cover at init and
+// through the 2 s hiding, each held 0.05 under what is measured: nearly as
+// well as alone (region_hidden alone is held to 0.86, here to 0.83: found
+// again later, those searches come every ceil(100 / 8) = 13 frames).
 TEST(RegionFailureClass, TargetAmong99OtherRegions) {
   {
     const Tracked t = track("region_static_covered", [](const std::vector<FrameTruth>&) { return 0; },

@@ -105,11 +105,17 @@ TEST(MotionCache, ImagesStayWithinTheirBudgetOldestDroppedFirst) {
   ASSERT_TRUE(cache.push(md[10], &err, cv::Mat(md[10].height, md[10].width, CV_8UC3))) << err;
   EXPECT_TRUE(cache.image(cache.lastSeq()).empty());
   EXPECT_EQ(cache.size(), 11u);
+  cache.setImageBudget(one / 2);  // the kept ones dropped, a new one too large
+  EXPECT_EQ(cache.imageBytes(), 0u);
+  ASSERT_TRUE(cache.push(md[11], &err, cv::Mat(md[11].height, md[11].width, CV_8UC1, cv::Scalar(11)))) << err;
+  EXPECT_TRUE(cache.image(cache.lastSeq()).empty());
+  EXPECT_EQ(cache.imageBytes(), 0u);
+  EXPECT_EQ(cache.size(), 12u);
   cache.setImageBudget(0);
   EXPECT_EQ(cache.imageBytes(), 0u);
   // A reset (time going backwards) clears the images with the frames.
   cache.setImageBudget(3 * one);
-  ASSERT_TRUE(cache.push(md[11], &err, cv::Mat(md[11].height, md[11].width, CV_8UC1))) << err;
+  ASSERT_TRUE(cache.push(md[12], &err, cv::Mat(md[12].height, md[12].width, CV_8UC1))) << err;
   EXPECT_FALSE(cache.push(md[5], &err, cv::Mat(md[5].height, md[5].width, CV_8UC1)));
   EXPECT_EQ(cache.size(), 1u);
   EXPECT_EQ(cache.imageBytes(), one);

@@ -105,9 +105,16 @@ TEST(RegionTracker, BackwardTrackingFromTheLastFrame) {
   for (int k = 59; k > 0; --k) {
     s = t.step(s, md[k], Direction::kBackward, md[k - 1].stamp);
     EXPECT_DOUBLE_EQ(s.stamp, md[k - 1].stamp);
+    EXPECT_EQ(s.status, RegionStatus::kTracked) << "frame " << k - 1;
     sum += iou(s.extent(), w.box(0, k - 1));
   }
+  const double first = iou(s.extent(), w.box(0, 0));
+  std::printf("backward: mean IoU %.3f, at frame 0 %.3f\n", sum / 59, first);
+  // Measured 0.943 on average and 0.881 at frame 0, where the card is
+  // largest and the box's scale, followed from its smallest, lags most
+  // (failure class 4: backward no worse than the 0.85 anywhere).
   EXPECT_GT(sum / 59, 0.9);
+  EXPECT_GT(first, 0.85) << "drifted by frame 0";
 }
 
 TEST(RegionTracker, OcclusionByAnotherCardDoesNotDragTheRegion) {
@@ -125,12 +132,22 @@ TEST(RegionTracker, OcclusionByAnotherCardDoesNotDragTheRegion) {
   w.objects = {target, occluder};
   const auto md = w.motionData(75);
   const Track tr = trackForward(md, w.box(0, 0), 0);
-  double sum = 0;
+  double sum = 0, worst_covered = 1;
   for (int k = 0; k < 75; ++k) {
-    sum += iou(tr.states[k].extent(), w.box(0, k));
+    const double v = iou(tr.states[k].extent(), w.box(0, k));
+    sum += v;
+    if ((w.box(0, k) & w.box(1, k)).area() > 0) worst_covered = std::min(worst_covered, v);
   }
-  EXPECT_GT(sum / 75, 0.8);
-  EXPECT_GT(iou(tr.states.back().extent(), w.box(0, 74)), 0.75) << "not recovered after the occluder passed";
+  std::printf("occluded: mean IoU %.3f, worst while covered %.3f, at the end %.3f\n", sum / 75, worst_covered,
+              iou(tr.states.back().extent(), w.box(0, 74)));
+  // Measured: 0.930 on average, 0.909 at worst while the occluder covers
+  // part of the target, 0.878 at the end. A region the occluder drags
+  // (9 px a frame faster than the target) falls under 0.5 within a few
+  // frames: each bar is the measure less about 0.03, the 0.85 where
+  // it is higher.
+  EXPECT_GT(sum / 75, 0.9);
+  EXPECT_GT(worst_covered, 0.87) << "dragged while covered";
+  EXPECT_GT(iou(tr.states.back().extent(), w.box(0, 74)), 0.85) << "not recovered after the occluder passed";
 }
 
 // A card swinging to and fro in front of a panning wall, its box drawn with

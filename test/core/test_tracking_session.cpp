@@ -233,12 +233,21 @@ TEST(TrackingSession, LiveAndOfflineAgreeOnImageTargets) {
   std::map<int, FrameResult> offline;
   EXPECT_EQ(liveVsOffline("poster_orbit, image target", r, items, PipelineOptions(), &offline), 0.0);
   int not_found = 0, tracked = 0;
+  double worst_rms = 0;
   for (const auto& [i, fr] : offline) {
     if (i < items.given) continue;
     ASSERT_EQ(fr.targets.size(), 1u);
     not_found += fr.targets[0].status == TargetStatus::kNotFound;
     tracked += fr.targets[0].status == TargetStatus::kTracked;
+    if (fr.targets[0].status == TargetStatus::kTracked)
+      worst_rms = std::max(worst_rms, test::cornerRms(fr.targets[0].corners, r.scene->frameTruth(i).targets.at(0).corners));
   }
+  std::printf("poster_orbit, image target: %d frames tracked, corner RMS at worst %.3f px\n", tracked, worst_rms);
+  // Not merely the same live and offline, but right: measured 0.017 px at
+  // worst (a rendered poster, found and aligned to a fraction of a pixel);
+  // 1 px, between the planar tests' bars for the median and the 95th
+  // percentile (0.5 and 1.5 px).
+  EXPECT_LT(worst_rms, 1.0);
   // Found by the first search: its answer comes detect_interval frames on.
   EXPECT_EQ(not_found, PlanarTargetOptions().detect_interval);
   EXPECT_EQ(tracked + not_found, r.scene->frameCount() - items.given);
@@ -337,10 +346,24 @@ TEST(TrackingSession, LiveAndOfflineAgreeOnAnchors) {
   std::map<int, FrameResult> offline;
   EXPECT_LT(liveVsOffline("floor_walk", r, items, PipelineOptions(), &offline), 1e-9);  // as above
   // The anchor is tracked with the IMU: its status is tracked where in view.
-  int tracked = 0;
-  for (const auto& [i, fr] : offline)
+  int tracked = 0, in_view = 0;
+  double worst_px = 0;
+  for (const auto& [i, fr] : offline) {
     tracked += fr.anchors.size() == 1 && fr.anchors[0].status == AnchorStatus::kTracked;
+    const FrameTruth t = r.scene->frameTruth(i);
+    if (i < items.given || t.anchors.empty() || !t.anchors[0].in_view || fr.anchors.size() != 1) continue;
+    ++in_view;
+    EXPECT_EQ(fr.anchors[0].status, AnchorStatus::kTracked) << "frame " << i;
+    worst_px = std::max(worst_px, cv::norm(fr.anchors[0].pixel - t.anchors[0].pixel));
+  }
+  std::printf("floor_walk: anchor tracked on %d frames, in view on %d from its frame on; pixel error at worst %.2f px\n",
+              tracked, in_view, worst_px);
   EXPECT_GT(tracked, static_cast<int>(r.frames.size()) / 2);
+  EXPECT_GT(in_view, 0);
+  // Not merely the same live and offline, but right: measured 0.54 px at
+  // worst over these first 2.3 s; the anchors' own bar is a median of 3 px in
+  // view (test_anchor_manager.cpp), here held at every frame.
+  EXPECT_LT(worst_px, 3.0);
 
   // The same without the IMU-to-camera rotation (no tf): the session finds
   // it from the video, and the frames before it was found are `calibrating`
@@ -759,6 +782,11 @@ TEST(TrackingSession, RepeatedAndSlightlyLateStampsAreDroppedNotResets) {
   double clean = 0, iou = 0;
   run([](int, double) { return std::vector<double>{}; }, &resets, &clean);
   EXPECT_EQ(resets, 0);
+  // The comparisons below hold only if the card is tracked at all: measured
+  // 0.769 on this short half-size render (a lost or left-behind region
+  // scores under 0.4); the tracker's accuracy itself is held to the issue's
+  // 0.85 elsewhere (test_region_scenes.cpp).
+  EXPECT_GT(clean, 0.7);
   // Every frame's stamp given twice: the copies are dropped.
   TrackingSession::TimeDrops d = run([](int, double t) { return std::vector<double>{t}; }, &resets, &iou);
   std::printf("card 1: mean IoU %.3f; every stamp twice: %.3f, %zu dropped, %d resets\n", clean, iou, d.duplicate,
@@ -818,6 +846,7 @@ TEST(TrackingSession, RepeatedAndSlightlyLateStampsAreDroppedNotResets) {
   // across as well as without the gap (its velocity is scaled by the step's
   // length, which the gap makes 360 frames long: within 0.05).
   EXPECT_NEAR(gap_iou, clean, 0.05);
+  EXPECT_GT(gap_iou, 0.7);  // measured 0.777: tracked across, as above
 }
 
 }  // namespace

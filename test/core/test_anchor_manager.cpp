@@ -171,6 +171,8 @@ TEST(AnchorManager, StillCameraGivesTheTapAndTheDepth) {
   EXPECT_EQ(st[0].status, AnchorStatus::kTracked) << st[0].reason;
   EXPECT_TRUE(st[0].T_cam_anchor.linear().col(2).isApprox(Eigen::Vector3d::UnitZ(), 1e-6))
       << st[0].T_cam_anchor.linear();
+  EXPECT_TRUE(st[0].T_cam_anchor.linear().col(0).isApprox(Eigen::Vector3d::UnitY(), 1e-6))
+      << st[0].T_cam_anchor.linear();
   // Backwards to a frame before the placement: the same (still camera).
   ASSERT_TRUE(f.anchors.statesAt(100.0 + 1 / 30.0, {id}, &st, &err)) << err;
   EXPECT_NEAR(st[0].pixel.x, 400, 1e-9);
@@ -772,6 +774,9 @@ TEST(AnchorManager, FloorWalkLateImuAndHiddenRotation) {
     EXPECT_FALSE(f.tracked_while_calibrating);
     EXPECT_LE(f.rotation_error, 1.0);                       // issue 14: within 1 deg
     EXPECT_NEAR(1000 * f.time_offset, late_ms, 2.0);        // and 2 ms
+    // In the end the bias fit's, as the comment above says.
+    EXPECT_EQ(f.offset_source, AnchorManager::OffsetSource::kBiasFit)
+        << AnchorManager::offsetSourceName(f.offset_source);
     // Measured 0.409 deg at +40 ms, 0.475 at -30 ms (0.236 / 0.192 with the
     // rotation given; the rotation found 0.41 / 0.67 deg off; with a 3-s
     // wait for the rotation to settle, tried first: 0.617 deg at +40 ms,
@@ -841,6 +846,11 @@ TEST(AnchorManager, TfTheVideoDisagreesWithIsWarnedAbout) {
   EXPECT_NE(wrong.disagreement.find("differ by 128"), std::string::npos) << wrong.disagreement;
   EXPECT_EQ(right.disagreement, "");
   EXPECT_EQ(wrong.calibrating, 0);  // tf gave a rotation from the start
+  // The rotation in use is tf's, warned about, not the video's: 128 deg from
+  // the mounting (0.1 deg: the two angles' rounding), the right tf's within
+  // issue 14's 1 deg.
+  EXPECT_NEAR(wrong.rotation_error, 128, 0.1);
+  EXPECT_LE(right.rotation_error, 1.0);
 }
 
 // The issue's fallback: while the anchor is out of view every frame loses its

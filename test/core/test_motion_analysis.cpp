@@ -51,6 +51,7 @@ std::unique_ptr<SceneGenerator> labelScene(const SceneOptions& o) {
 
 struct SceneRun {
   std::vector<double> transfer_errors;  // px, background grid points, every frame pair
+  double worst_pair_median = 0, worst_pair_p95 = 0;  // px, the worst frame pair's
   int frames = 0;                       // frame pairs analysed
   int models[4] = {0, 0, 0, 0};         // frame pairs per chosen model
   int card_features = 0, card_flagged = 0;
@@ -90,6 +91,7 @@ SceneRun runScene(const std::string& preset, int first, int frames) {
       // the previous frame.
       EXPECT_TRUE(gt.background_homography.has_value());
       if (gt.background_homography) {
+        const size_t pair_start = run.transfer_errors.size();
         for (int gy = 0; gy < 12; ++gy) {
           for (int gx = 0; gx < 16; ++gx) {
             const Eigen::Vector2d p((gx + 0.5) * md.width / 16, (gy + 0.5) * md.height / 12);
@@ -99,6 +101,11 @@ SceneRun runScene(const std::string& preset, int first, int frames) {
             run.transfer_errors.push_back(
                 (transfer(md.camera.H, p) - transfer(*gt.background_homography, p)).norm());
           }
+        }
+        const std::vector<double> pair(run.transfer_errors.begin() + pair_start, run.transfer_errors.end());
+        if (!pair.empty()) {
+          run.worst_pair_median = std::max(run.worst_pair_median, percentile(pair, 0.5));
+          run.worst_pair_p95 = std::max(run.worst_pair_p95, percentile(pair, 0.95));
         }
       }
       for (const FeatureMotion& f : md.features) {
@@ -135,7 +142,9 @@ class MotionAnalysisScene : public ::testing::TestWithParam<SceneCase> {};
 // Targets of issue 3: median transfer error <= 0.3 px, 95th percentile <= 1 px
 // per frame pair. Measured (default options, 640x480): cards median 0.012 /
 // p95 0.030 px, wall_pan 0.009 / 0.022, rotate 0.011 / 0.032, planar 0.010 /
-// 0.026, still 0.003 / 0.007; the targets hold with a wide margin.
+// 0.026, still 0.003 / 0.007; the targets hold with a wide margin. The worst
+// frame pair's: 0.014 / 0.038, 0.047 / 0.087, 0.016 / 0.039, 0.005 / 0.009,
+// cards 0.026 / 0.061.
 // The model class: a textured wall seen whole (pure rotation, no motion, a
 // fully planar scene, a pan) supports the 8DoF homography in every frame.
 TEST_P(MotionAnalysisScene, CameraMotionMatchesGroundTruth) {
@@ -150,15 +159,18 @@ TEST_P(MotionAnalysisScene, CameraMotionMatchesGroundTruth) {
                p95 = percentile(run.transfer_errors, 0.95);
   EXPECT_LE(median, 0.3);
   EXPECT_LE(p95, 1.0);
+  // And in every frame pair, not only over all of them pooled.
+  EXPECT_LE(run.worst_pair_median, 0.3);
+  EXPECT_LE(run.worst_pair_p95, 1.0);
   RecordProperty("transfer_median_px", std::to_string(median));
   RecordProperty("transfer_p95_px", std::to_string(p95));
-  std::printf("[ %s ] transfer error median %.3f px, p95 %.3f px over %zu points\n",
-              c.preset.c_str(), median, p95, run.transfer_errors.size());
-  if (run.bg_features > 0) {
-    // Background features flagged foreground: <= 5% (issue 3). Measured
-    // 0.0-0.1% on the wall-only scenes.
-    EXPECT_LE(static_cast<double>(run.bg_flagged) / run.bg_features, 0.05);
-  }
+  std::printf("[ %s ] transfer error median %.3f px, p95 %.3f px over %zu points; the worst pair's %.3f / %.3f px\n",
+              c.preset.c_str(), median, p95, run.transfer_errors.size(), run.worst_pair_median,
+              run.worst_pair_p95);
+  // Background features flagged foreground: <= 5% (issue 3). Measured
+  // 0.0-0.1% on the wall-only scenes.
+  ASSERT_GT(run.bg_features, 100);
+  EXPECT_LE(static_cast<double>(run.bg_flagged) / run.bg_features, 0.05);
 }
 
 INSTANTIATE_TEST_SUITE_P(MotionAnalysisPresets, MotionAnalysisScene,
@@ -204,6 +216,7 @@ TEST(MotionAnalysisScenes, FeaturelessWallIsInvalid) {
     const MotionData md = analyzer.process(scene->renderFrame(i), scene->frameStamp(i));
     EXPECT_EQ(md.camera.model, MotionModel::kInvalid) << "frame " << i;
     EXPECT_TRUE(md.camera.H.isIdentity()) << "frame " << i;
+    EXPECT_TRUE(md.features.empty()) << "frame " << i << ": " << md.features.size() << " features";
   }
 }
 

@@ -114,7 +114,10 @@ class PosterOrbit : public ::testing::Test {
     for (uint64_t seq = cache_->firstSeq() + 1; seq <= cache_->lastSeq(); ++seq) {
       std::vector<PlanarTargetState> states;
       EXPECT_TRUE(m.statesAt(cache_->at(seq).stamp, {id}, &states, &err)) << err;
-      if (states.empty()) continue;
+      if (states.size() != 1) {
+        ADD_FAILURE() << states.size() << " target states at frame " << seq - cache_->firstSeq() << ", not 1";
+        continue;
+      }
       const PlanarTargetState& s = states[0];
       const FrameTruth::Target& t = truth_[seq - cache_->firstSeq()].targets.at(0);
       e.corners.push_back(cornerRms(s.corners, t.corners));
@@ -150,6 +153,7 @@ std::vector<FrameTruth> PosterOrbit::truth_;
 TEST_F(PosterOrbit, RigidPoseMeetsThePotTargetsWithoutDrift) {
   ASSERT_EQ(truth_.size(), 600u);
   const Errors e = track("perspective");
+  ASSERT_EQ(e.corners.size(), 599u);  // every frame after the first scored
   // The bars: alignment median <= 0.5 px, p95 <= 1.5 px, last frame
   // <= 1.0 px (no drift); rotation median <= 0.5 deg; translation median <= 1%.
   EXPECT_LE(percentile(e.corners, 0.5), 0.5);

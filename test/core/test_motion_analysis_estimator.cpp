@@ -105,7 +105,9 @@ TEST_P(CameraMotionModelClass, ChoosesTheHighestSupportedModel) {
   if (c.expected == MotionModel::kInvalid) {
     EXPECT_TRUE(e.motion.H.isIdentity());
   } else if (c.max_error > 0) {
-    EXPECT_LE(maxTransferError(e.motion.H, c.H), c.max_error);
+    const double err = maxTransferError(e.motion.H, c.H);
+    std::printf("%s: transfer error at most %.3f px (bar %.2f)\n", c.name.c_str(), err, c.max_error);
+    EXPECT_LE(err, c.max_error);
   }
 }
 
@@ -115,7 +117,9 @@ const cv::Rect2d kCorner(20, 20, 140, 110);  // 2 x 2 of the 8 x 6 grid cells: c
 // Tolerances: with 0.1 px noise on ~200 points the least-squares error at the
 // frame border is ~0.05 px for the homography; 0.15 px leaves room for the
 // 30% outliers. Restricted models are compared with the true motion only
-// where that motion is of their class.
+// where that motion is of their class. Measured (largest transfer error over
+// the frame): 0.044 / 0.066 px (the homographies), 0.029 (the similarity
+// from a corner of the frame), 0.026 (20 features), 0.015 (85% outliers).
 INSTANTIATE_TEST_SUITE_P(
     CameraMotionCases, CameraMotionModelClass,
     ::testing::Values(ModelCase{"perspective_spread", model(6, -3, 0.02, 1.01, 1.5e-4, -1e-4), 200,
@@ -124,7 +128,7 @@ INSTANTIATE_TEST_SUITE_P(
                                 model(-4, 2, -0.03, 0.99, -1e-4, 1e-4), 250, kWhole, 0.3,
                                 MotionModel::kHomography, ModelCheck::kOk, 0.15},
                       ModelCase{"similarity_clustered", model(3, 1, 0.05, 1.02), 200, kCorner, 0.0,
-                                MotionModel::kSimilarity, ModelCheck::kLowCoverage, 0.5},
+                                MotionModel::kSimilarity, ModelCheck::kLowCoverage, 0.15},
                       ModelCase{"few_features_translation", model(5, -2, 0, 1), 20, kWhole, 0.0,
                                 MotionModel::kTranslation, ModelCheck::kTooFewInliers, 0.15},
                       ModelCase{"two_features_invalid", model(5, -2, 0, 1), 2, kWhole, 0.0,
@@ -137,9 +141,10 @@ INSTANTIATE_TEST_SUITE_P(
                                 MotionModel::kInvalid, ModelCheck::kScale, 0},
                       // Mild perspective (1.6e-2 in diagonal units) against a bound
                       // tightened to 1e-2: the homography is refused, the similarity (2 px
-                      // off at the far corners, inside the inlier threshold) holds.
+                      // off at the far corners, inside the inlier threshold; measured 2.32
+                      // px, bar 2.5) holds.
                       ModelCase{"perspective_out_of_bounds", model(0, 0, 0, 1, 2e-5, 0), 200,
-                                kWhole, 0.0, MotionModel::kSimilarity, ModelCheck::kPerspective, 0,
+                                kWhole, 0.0, MotionModel::kSimilarity, ModelCheck::kPerspective, 2.5,
                                 0.01},
                       ModelCase{"translation_out_of_bounds", model(200, 0, 0, 1), 200, kWhole, 0.0,
                                 MotionModel::kInvalid, ModelCheck::kTranslation, 0},
@@ -167,7 +172,12 @@ TEST(CameraMotionEstimator, TemporalPriorKeepsTheBackground) {
   const CameraMotionEstimate without = estimator.estimate(a.prev, a.cur, {}, kFrame);
   EXPECT_LE(maxTransferError(without.motion.H, object), 0.2) << "the majority wins without priors";
   const CameraMotionEstimate with = estimator.estimate(a.prev, a.cur, a.prior, kFrame);
+  std::printf("temporal prior: without %.3f px from the object's motion, with %.3f px from the background's\n",
+              maxTransferError(without.motion.H, object), maxTransferError(with.motion.H, bg));
   EXPECT_NE(with.motion.model, MotionModel::kInvalid);
+  // Measured 0.056 px without the priors (the object's 110 points), 0.101
+  // with them (the background's 90): 0.1 px noise on fewer points than the
+  // suite's ~200; 0.2 px, twice the worst.
   EXPECT_LE(maxTransferError(with.motion.H, bg), 0.2);
 }
 
@@ -180,7 +190,8 @@ TEST(CameraMotionEstimator, IgnoresNonFiniteCorrespondences) {
   const CameraMotionEstimate e = estimator.estimate(k.prev, k.cur, k.prior, kFrame);
   EXPECT_NE(e.motion.model, MotionModel::kInvalid);
   EXPECT_TRUE(e.motion.H.allFinite());
-  EXPECT_LE(maxTransferError(e.motion.H, model(3, 3, 0, 1)), 0.15);
+  std::printf("non-finite input skipped: transfer error at most %.3f px\n", maxTransferError(e.motion.H, model(3, 3, 0, 1)));
+  EXPECT_LE(maxTransferError(e.motion.H, model(3, 3, 0, 1)), 0.15);  // measured 0.098 on the 98 finite points
 }
 
 }  // namespace

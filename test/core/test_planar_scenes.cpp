@@ -373,6 +373,7 @@ TEST(PosterOutOfView, PredictedWhileOutAndPickedUpAgain) {
   int out_frames = 0, out_status = 0;
   bool was_out = false;
   std::vector<double> back;  // corner error once back in view
+  std::vector<double> out;   // corner error while out of view (predicted)
   ASSERT_EQ(scene->frameTruth(90).targets.at(0).visible_fraction, 1.0);  // given wholly in view
   trackRendered(
       *scene, 90, [&](int i, const FrameTruth::Target& t, const PlanarTargetState& s, double e) {
@@ -383,21 +384,26 @@ TEST(PosterOutOfView, PredictedWhileOutAndPickedUpAgain) {
           was_out = true;
           ++out_frames;
           out_status += s.status == TargetStatus::kOutOfView;
+          out.push_back(e);
         } else if (was_out && t.visible_fraction >= 0.4) {
           back.push_back(e);
         }
       });
   ASSERT_FALSE(HasFatalFailure());
   std::printf(
-      "poster out of view: %d frames out (out_of_view status on %d); back in view: median %.2f px, "
-      "last %.2f px over %zu frames\n",
-      out_frames, out_status, back.empty() ? NAN : percentile(back, 0.5),
+      "poster out of view: %d frames out (out_of_view status on %d, predicted %.2f px median, %.2f px at "
+      "worst); back in view: median %.2f px, last %.2f px over %zu frames\n",
+      out_frames, out_status, out.empty() ? NAN : percentile(out, 0.5),
+      out.empty() ? NAN : *std::max_element(out.begin(), out.end()), back.empty() ? NAN : percentile(back, 0.5),
       back.empty() ? NAN : back.back(), back.size());
   ASSERT_GT(out_frames, 10) << "the scene should take the poster out of view";
   EXPECT_EQ(out_status, out_frames);
   ASSERT_GT(back.size(), 10u) << "and bring it back";
-  // Measured: ~2 px while out (the camera motion's prediction), 0.08 px
-  // median once back; 1 px is the drift-free bar for the last frame.
+  // Measured: 0.51 px at worst while out (the camera motion's prediction;
+  // held to 2 px, the pose's own bar at the 95th percentile in view being
+  // 1.5), 0.04 px median once back; 1 px is the drift-free bar for
+  // the last frame.
+  EXPECT_LE(*std::max_element(out.begin(), out.end()), 2.0);
   EXPECT_LE(percentile(back, 0.5), 1.0);
   EXPECT_LE(back.back(), 1.0);
 }

@@ -99,8 +99,9 @@ TEST(RegionFilter, LearningLeavesCopiesAsTheyWere) {
   EXPECT_EQ(before.psr, after.psr);
   // The learner itself took on half of the other texture: measured 0.44 of
   // its peak before; 0.8 tells a filter that learnt from one that did not.
-  std::printf("learnt half of another texture: peak %.3f of before\n", f.locate(frame, kBox).peak / before.peak);
-  EXPECT_LT(f.locate(frame, kBox).peak, 0.8 * before.peak);
+  const double learnt = f.locate(frame, kBox).peak;
+  std::printf("learnt half of another texture: peak %.3f of before\n", learnt / before.peak);
+  EXPECT_LT(learnt, 0.8 * before.peak);
 }
 
 // A thread keeps the spectra of the filters it located last (a filter's
@@ -135,8 +136,9 @@ TEST(RegionFilter, ManyFiltersFindAlikeInAnyOrder) {
   }
   // Another filter's weights on this region peak lower (so the checks above
   // would see a mix-up): measured 0.23 of its own.
-  std::printf("another filter's weights: peak %.3f of its own\n", filters[1].locate(moved[0], kBox).peak / first[0].peak);
-  EXPECT_LT(filters[1].locate(moved[0], kBox).peak, 0.8 * first[0].peak);
+  const double mixed = filters[1].locate(moved[0], kBox).peak;
+  std::printf("another filter's weights: peak %.3f of its own\n", mixed / first[0].peak);
+  EXPECT_LT(mixed, 0.8 * first[0].peak);
 }
 
 TEST(RegionFilter, LearnsAChangedLook) {

@@ -2,10 +2,10 @@
 // tracked backwards and forwards, seeked; bad requests named.
 #include "instant_motion_tracking/core/region/region_manager.h"
 
+#include "opencv_threads.h"
 #include "synthetic_motion.h"
 
 #include <gtest/gtest.h>
-#include <opencv2/core.hpp>
 
 #include <algorithm>
 #include <cstdio>
@@ -202,8 +202,7 @@ TEST(RegionManager, HundredRegions) {
   const World w = cardWorld();
   const auto md = w.motionData(20);
   const auto run = [&](int threads, std::vector<std::vector<RegionState>>* frames) {
-    const int saved = cv::getNumThreads();
-    cv::setNumThreads(threads);
+    const test::OpenCvThreads scope(threads);
     RegionManager m(RegionTrackerOptions(), 10.0);
     m.update(md[0]);
     uint32_t id;
@@ -215,7 +214,6 @@ TEST(RegionManager, HundredRegions) {
     ASSERT_TRUE(m.add(0, 0, w.box(0, 0), &id, &err)) << err;
     EXPECT_EQ(id, 101u);
     for (int k = 1; k < 20; ++k) frames->push_back(m.update(md[k]));
-    cv::setNumThreads(saved);
   };
   std::vector<std::vector<RegionState>> three, one;
   run(3, &three);

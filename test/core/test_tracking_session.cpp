@@ -7,6 +7,7 @@
 #include "instant_motion_tracking/core/tracking_session.h"
 
 #include "../box_metrics.h"
+#include "opencv_threads.h"
 #include "scene_test_util.h"
 
 #include <gtest/gtest.h>
@@ -536,16 +537,6 @@ TEST(TrackingSession, LiveAndOfflineAgreeOnCards) {
   EXPECT_LT(d, 1e-9) << "regions and planar targets, frame " << at;
 }
 
-// OpenCV's thread count for a scope.
-class OpenCvThreads {
- public:
-  explicit OpenCvThreads(int n) : saved_(cv::getNumThreads()) { cv::setNumThreads(n); }
-  ~OpenCvThreads() { cv::setNumThreads(saved_); }
-
- private:
-  int saved_;
-};
-
 // Beyond appearance_budget (8) the regions take turns at their look, and
 // with many regions' own corners each frame's pyramid is shared: what a
 // region's step does depends on the others. Through the regions given at or
@@ -568,11 +559,11 @@ TEST(TrackingSession, LiveAndOfflineAgreeOnManyRegions) {
   for (int i = 0; i < 24; ++i) items.more_regions.push_back(cv::Rect2d(20 + (i % 6) * 100, 30 + (i / 6) * 110, 60, 50));
   std::map<int, FrameResult> offline, one_thread;
   {
-    const OpenCvThreads threads(3);
+    const test::OpenCvThreads threads(3);
     EXPECT_LT(liveVsOffline("cards, 25 regions", r, items, PipelineOptions(), &offline), 1e-9);  // as above
   }
   {
-    const OpenCvThreads threads(1);
+    const test::OpenCvThreads threads(1);
     int reread = 0;
     one_thread = runOffline(r, items, PipelineOptions(), 512, &reread);
   }

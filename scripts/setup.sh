@@ -5,12 +5,17 @@
 # Knobs: IMT_BUILD_DIR (default _build), IMT_BUILD_TYPE (default RelWithDebInfo),
 # IMT_CMAKE_ARGS (more cmake arguments at the first configure), IMT_SANITIZE=1
 # (the ASan/UBSan build of scripts/sanitize.sh and scripts/fuzz.sh: in
-# IMT_SANITIZE_DIR, default _build_sanitize, with -DIMT_SANITIZE=ON).
+# IMT_SANITIZE_DIR, default _build_sanitize, with -DIMT_SANITIZE=ON), IMT_TSAN=1
+# (the ThreadSanitizer build of scripts/tsan.sh: in IMT_TSAN_DIR, default
+# _build_tsan, with -DIMT_TSAN=ON).
 
 IMT_ROOT=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 if [ "${IMT_SANITIZE:-0}" = 1 ]; then
   IMT_BUILD_DIR=${IMT_SANITIZE_DIR:-$IMT_ROOT/_build_sanitize}
   IMT_CMAKE_ARGS="-DIMT_SANITIZE=ON ${IMT_CMAKE_ARGS:-}"
+elif [ "${IMT_TSAN:-0}" = 1 ]; then
+  IMT_BUILD_DIR=${IMT_TSAN_DIR:-$IMT_ROOT/_build_tsan}
+  IMT_CMAKE_ARGS="-DIMT_TSAN=ON ${IMT_CMAKE_ARGS:-}"
 fi
 IMT_BUILD_DIR=${IMT_BUILD_DIR:-$IMT_ROOT/_build}
 IMT_BUILD_TYPE=${IMT_BUILD_TYPE:-RelWithDebInfo}

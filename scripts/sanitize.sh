@@ -41,20 +41,13 @@ imt_build $targets
 # Any report ends the binary with an error (UBSan only prints by default).
 export ASAN_OPTIONS=${ASAN_OPTIONS:-detect_leaks=1:abort_on_error=0:halt_on_error=1}
 export UBSAN_OPTIONS=${UBSAN_OPTIONS:-halt_on_error=1:print_stacktrace=1}
-bin="$IMT_BUILD_DIR/devel/lib/instant_motion_tracking"
 status=0
 # run_sanitized BINARY LOG [gtest shard index]: one run, its verdict logged.
 # test_core's tests run in two shards at once (one per core: they are
 # single-threaded, and this stage is on the critical path of scripts/test.sh).
 run_sanitized() {
-  local t=$1 log=$2
   if [ $# -gt 2 ]; then export GTEST_TOTAL_SHARDS=2 GTEST_SHARD_INDEX=$3; fi
-  if ! "$bin/$t" --gtest_filter="$filter" >"$log" 2>&1; then
-    imt_log "$t failed under the sanitizers (${log##*/}):"
-    grep -E -A30 "ERROR: AddressSanitizer|ERROR: LeakSanitizer|runtime error|\[  FAILED  \]" "$log" | head -80 >&2 || tail -40 "$log" >&2
-    return 1
-  fi
-  imt_log "$t clean (${log##*/}): $(grep -E '^\[  PASSED  \]' "$log" || echo '?')"
+  imt_run_checked "$1" "$filter" "$2" "ASan/UBSan" "ERROR: AddressSanitizer|ERROR: LeakSanitizer|runtime error"
 }
 imt_log "running test_io, then test_core in two shards, under ASan/UBSan (filter: $filter)"
 run_sanitized test_io "$IMT_BUILD_DIR/test_io.log" || status=1

@@ -31,6 +31,20 @@ IMT_PACKAGES=(
 
 imt_log() { printf '[imt] %s\n' "$*" >&2; }
 
+# imt_run_checked BINARY FILTER LOG WHAT REPORTS: one run of this build's gtest
+# BINARY under a sanitizer, its output in LOG; on failure the lines matching
+# the extended regex REPORTS (and failed tests) go to stderr. WHAT names the
+# sanitizers in the verdict logged. Returns the run's success.
+imt_run_checked() {
+  local t=$1 filter=$2 log=$3 what=$4 reports=$5
+  if ! "$IMT_BUILD_DIR/devel/lib/instant_motion_tracking/$t" --gtest_filter="$filter" >"$log" 2>&1; then
+    imt_log "$t failed under $what (${log##*/}):"
+    grep -E -A40 "$reports|\[  FAILED  \]" "$log" | head -120 >&2 || tail -40 "$log" >&2
+    return 1
+  fi
+  imt_log "$t clean under $what (${log##*/}): $(grep -E '^\[  PASSED  \]' "$log" || echo '?')"
+}
+
 imt_install() {
   local missing=() p
   for p in "${IMT_PACKAGES[@]}"; do

@@ -27,18 +27,9 @@ imt_build test_core test_ros
 # Any report ends the binary with an error; scripts/tsan.supp leaves out
 # reports inside other packages' libraries.
 export TSAN_OPTIONS=${TSAN_OPTIONS:-halt_on_error=1:second_deadlock_stack=1:suppressions=$IMT_ROOT/scripts/tsan.supp}
-bin="$IMT_BUILD_DIR/devel/lib/instant_motion_tracking"
 status=0
 # run_tsan BINARY FILTER: one run, its verdict logged.
-run_tsan() {
-  local t=$1 f=$2 log="$IMT_BUILD_DIR/$1.tsan.log"
-  if ! "$bin/$t" --gtest_filter="$f" >"$log" 2>&1; then
-    imt_log "$t failed under ThreadSanitizer (${log##*/}):"
-    grep -E -A40 "WARNING: ThreadSanitizer|\[  FAILED  \]" "$log" | head -120 >&2 || tail -40 "$log" >&2
-    return 1
-  fi
-  imt_log "$t clean under ThreadSanitizer: $(grep -E '^\[  PASSED  \]' "$log" || echo '?')"
-}
+run_tsan() { imt_run_checked "$1" "$2" "$IMT_BUILD_DIR/$1.tsan.log" ThreadSanitizer "WARNING: ThreadSanitizer"; }
 imt_log "running test_core under ThreadSanitizer, OpenCV's loops on std::threads (filter: $filter)"
 IMT_TEST_STD_THREADS=3 run_tsan test_core "$filter" || status=1
 # Not the tests that run track_bag: its OpenCV loops run on TBB.

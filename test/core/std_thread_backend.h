@@ -1,5 +1,6 @@
 // OpenCV's parallel loops on plain std::threads, for the ThreadSanitizer run
-// of the parallel region steps (scripts/tsan.sh). Debian's OpenCV runs its
+// of the parallel region steps (scripts/tsan.sh, which also runs the shared
+// session's hub tests without it). Debian's OpenCV runs its
 // loops on TBB, whose own synchronisation TSan does not see: it took every
 // access a TBB worker made to what the calling thread wrote before the loop
 // for a race. Here each loop starts its workers and joins them (thread
@@ -21,8 +22,6 @@ namespace test {
 
 class StdThreadBackend : public cv::parallel::ParallelForAPI {
  public:
-  static constexpr const char* kName = "imt test std::thread";
-
   explicit StdThreadBackend(int threads) : threads_(std::max(1, threads)) {}
 
   // Loops run by any instance (that OpenCV's do run here).
@@ -44,7 +43,7 @@ class StdThreadBackend : public cv::parallel::ParallelForAPI {
   int getThreadNum() const override { return index_; }
   int getNumThreads() const override { return threads_; }
   int setNumThreads(int n) override { return threads_.exchange(std::max(1, n)); }
-  const char* getName() const override { return kName; }
+  const char* getName() const override { return "imt test std::thread"; }
 
  private:
   static inline thread_local int index_ = 0;

@@ -1,11 +1,14 @@
 #!/usr/bin/python3
 """The whole real-video table of region tracking in one command: this
 package's success AUC on every box sequence in ../shared/data in each of the
-five ways docs/benchmarks.md reports it (the first frame's box; the middle
+six ways docs/benchmarks.md reports it (the first frame's box; the middle
 frame's, its halves backward and forward; every 2nd frame; every 3rd), as
-means over nudged starts, with a mean row. Two benchmark processes at a time,
-each on a core of its own (taskset), so the five take about a minute on two
-cores. A tracking change is judged on this table before and after, whole.
+means over nudged starts, and from the first frame's box perturbed as OTB's
+spatial robustness evaluation does (`--sre`: shifted by a tenth of its sides,
+scaled by 0.8-1.2; 12 runs), with a mean row. Two benchmark processes at a
+time, each on a core of its own (taskset), so the six take about a minute and
+a half on two cores. A tracking change is judged on this table before and
+after, whole.
 
 usage: region_table.py [--bench PATH] [--starts N] [--save FILE] [--against FILE]
                        [-- benchmark arguments, e.g. --set appearance_budget=4]
@@ -27,17 +30,17 @@ import subprocess
 import sys
 import tempfile
 
-MODES = ["first", "mid back", "mid fwd", "every 2nd", "every 3rd"]
+MODES = ["first", "mid back", "mid fwd", "every 2nd", "every 3rd", "sre"]
 OURS = "instant_motion_tracking"
 MEAN = "mean"
 
 
-def parse(text):
+def parse(text, sre=False):
     """{(sequence, mode): success AUC} of our rows in one run's output; the
     mode from the run's own row names (", backward" / ", forward" for the
-    middle frame's halves, "/N" for every Nth frame). The benchmark's own
-    mean row is left out: the table's mean is taken over the five modes'
-    own sequences (mean())."""
+    middle frame's halves, "/N" for every Nth frame), or "sre" for a run
+    with --sre. The benchmark's own mean row is left out: the table's mean is
+    taken over each mode's own sequences (mean())."""
     out = {}
     for line in text.splitlines():
         cells = [c.strip() for c in line.split("|")]
@@ -64,7 +67,7 @@ def parse(text):
         elif stride == 3:
             mode = "every 3rd"
         elif stride == 1:
-            mode = "first"
+            mode = "sre" if sre else "first"
         else:
             continue
         out[(name, mode)] = auc
@@ -135,31 +138,35 @@ def main(argv):
     if a.against:
         with open(a.against) as f:
             before = from_json(json.load(f))
-    base = [a.bench, "--ours-only", "--starts", str(a.starts)] + extra
-    # Two queues, one per core: the middle frame's runs (the longest) beside
-    # the first frame's and every 2nd frame's, then every 3rd.
-    queues = [[[], ["--stride", "2"]], [["--mid"], ["--stride", "3"]]]
+    base = [a.bench, "--ours-only"] + extra
+    starts = ["--starts", str(a.starts)]
+    # Two queues, one per core: the middle frame's runs (the longest) and
+    # every 3rd frame's beside the first frame's, every 2nd frame's and OTB's
+    # perturbed starts (--sre, which takes the place of --starts).
+    queues = [[starts, starts + ["--stride", "2"], ["--sre"]], [starts + ["--mid"], starts + ["--stride", "3"]]]
     cores = os.cpu_count() or 1
     figures = {}
     with tempfile.TemporaryDirectory() as tmp:
-        procs, outputs = [], []
+        procs, outputs, sre = [], [], []
         for q, runs in enumerate(queues):
             commands = []
             for i, run in enumerate(runs):
                 outputs.append(os.path.join(tmp, "%d_%d" % (q, i)))
+                sre.append("--sre" in run)
                 commands.append("%s > %s 2>&1" % (shlex.join(["taskset", "-c", str(q % cores)] + base + run),
                                                   shlex.quote(outputs[-1])))
             procs.append(subprocess.Popen(["/bin/sh", "-c", " && ".join(commands)]))
         failed = [proc.wait() for proc in procs] != [0] * len(procs)
-        for path in outputs:
+        for path, is_sre in zip(outputs, sre):
             if os.path.exists(path):
                 with open(path) as f:
-                    figures.update(parse(f.read()))
+                    figures.update(parse(f.read(), is_sre))
     if failed or not figures:
         print("a benchmark run failed or printed no row of ours (%s)" % " ".join(base), file=sys.stderr)
         return 1
     figures = mean(figures)
-    print("Success AUC, this package, means of %d starts%s:" % (a.starts, (" (" + " ".join(extra) + ")") if extra else ""))
+    print("Success AUC, this package, means of %d starts (sre: of OTB's 12)%s:" %
+          (a.starts, (" (" + " ".join(extra) + ")") if extra else ""))
     print(table(figures, before))
     if a.save:
         with open(a.save, "w") as f:

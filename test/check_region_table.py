@@ -1,7 +1,8 @@
 #!/usr/bin/python3
 """scripts/region_table.py, the whole real-video table in one command, on
 rows as benchmark_region_real prints them and, end to end, on a stand-in
-benchmark (no video, no build): each of the five ways read from its own run,
+benchmark (no video, no build): each of the six ways read from its own run
+(OTB's perturbed starts, --sre, from a run without --starts),
 the benchmark's own mean row ignored, a mean over each way's sequences, the
 arguments after "--" passed to every run, "before -> after" against a saved
 table, and a failing run reported as a failure.
@@ -38,14 +39,17 @@ EVERY3 = """| vot2015_car1/3 | instant_motion_tracking | 84 | 0.710 | 0.686..0.7
 """
 
 # A stand-in for benchmark_region_real: our rows for two sequences in the
-# way its arguments ask, AUC 0.5 (0.6 with "--set x=1"); exits 3 with
-# "--fail".
+# way its arguments ask, AUC 0.5 (0.6 with "--set x=1"; 0.1 less with
+# "--sre"); exits 3 with "--fail", and 2 with both "--sre" and "--starts"
+# (as the benchmark refuses them).
 FAKE = r"""#!/usr/bin/python3
 import sys
 a = sys.argv[1:]
 if "--fail" in a:
     sys.exit(3)
-auc = 0.6 if "x=1" in a else 0.5
+if "--sre" in a and "--starts" in a:
+    sys.exit(2)
+auc = (0.6 if "x=1" in a else 0.5) - (0.1 if "--sre" in a else 0)
 stride = a[a.index("--stride") + 1] if "--stride" in a else None
 for seq in ["seq_a", "seq_b"]:
     name = seq + ("/" + stride if stride else "")
@@ -76,6 +80,9 @@ def checks():
     }
     check("parse: our rows by way, peers and the benchmark's mean left out", figures == want,
           "parsed %r, expected %r" % (sorted(figures.items()), sorted(want.items())))
+    sre = region_table.parse(FIRST, sre=True)
+    check("parse: a --sre run's rows are the sre way's",
+          sre == {("vot2015_car1", "sre"): 0.757, ("pot210_V25_2", "sre"): 0.949}, "parsed %r" % sorted(sre.items()))
     with_mean = region_table.mean(figures)
     check("mean: over each way's own sequences",
           abs(with_mean[("mean", "first")] - (0.757 + 0.949) / 2) < 1e-9 and
@@ -107,11 +114,11 @@ def checks():
         status, printed = run(["--save", saved])
         rows = [line for line in printed.splitlines() if line.startswith("| seq_a")]
         check("end to end: every way from its own run",
-              status == 0 and rows == ["| seq_a | 0.500 | 0.500 | 0.500 | 0.500 | 0.500 |"],
+              status == 0 and rows == ["| seq_a | 0.500 | 0.500 | 0.500 | 0.500 | 0.500 | 0.400 |"],
               "status %d, printed:\n%s" % (status, printed))
         status, printed = run(["--against", saved, "--", "--set", "x=1"])
         check("end to end: arguments after -- reach every run; before -> after",
-              status == 0 and "| **mean** | " + " | ".join(["0.500 -> 0.600"] * 5) + " |" in printed,
+              status == 0 and "| **mean** | " + " | ".join(["0.500 -> 0.600"] * 5) + " | 0.400 -> 0.500 |" in printed,
               "status %d, printed:\n%s" % (status, printed))
         status, _ = run(["--", "--fail"])
         check("end to end: a failing run fails", status == 1, "status %d, expected 1" % status)

@@ -337,6 +337,31 @@ TEST(RegionFailureClass, RollingCardGivenMidSequenceForward) {
   EXPECT_GE(forward, 0.80);
 }
 
+// 4c. The card of region_midstart on seed 10, given mid-sequence: forward it
+// tilts away from frame 150 while 13-26 features carry it, and its look's
+// score fell from 0.72 to 0.29 in 12 frames, under the 0.6 at which the
+// template learned; after 60 checks under 0.3 the region was lost with 26
+// inliers (frame 226) and stayed where it was (forward 0.735). A region the
+// features carry firmly now teaches its template the views it still half
+// recognises. Seed 1 above does not show this.
+TEST(RegionFailureClass, TiltingCardGivenMidSequenceForward) {
+  const Tracked t = track("region_midstart", middleWhole, RegionTrackerOptions(), 0, /*seed=*/10);
+  ASSERT_FALSE(t.states.empty());
+  int nf = 0;
+  const double forward = t.meanIou(t.start + 1, static_cast<int>(t.truth.size()), &nf);
+  int lost = 0;
+  for (int k = t.start + 1; k < static_cast<int>(t.states.size()); ++k)
+    lost += t.states[k] && t.states[k]->status == RegionStatus::kLost;
+  std::printf("region_midstart, seed 10: given at frame %d: forward half mean IoU %.3f over %d frames, %d lost\n",
+              t.start, forward, nf, lost);
+  EXPECT_GT(nf, 100);
+  // Measured 0.835, never lost (the box still lags the card's shrink as it
+  // tilts: 123 px over 107 at frame 195). Floor 0.035 under, well above the
+  // 0.735 of a region lost at frame 226.
+  EXPECT_GE(forward, 0.80);
+  EXPECT_EQ(lost, 0);
+}
+
 // 5. A target hidden completely (behind an opaque panel) for 2 s and then
 // back in view: scored before the hiding, and from 0.5 s after it is wholly
 // back in view.

@@ -326,6 +326,13 @@ void RegionTracker::checkAppearance(const RegionState& state, RegionState* next,
         next->look_size = next->box.size();
       }
     }
+  } else if (score >= o.appearance_lost_score && !motion_weak && motion_confidence >= kFirmlyCarried) {
+    // A region the features carry firmly, whose look changes (a card
+    // tilting away) faster than its strong matches could teach the
+    // template: the features vouch for it, and the template learns this
+    // view too, before it stops recognising the region at all.
+    next->appearance.blend(image, next->box, 1 - std::pow(1 - o.appearance_update, state.look_age + 1), next->angle);
+    next->look_size = next->box.size();
   } else if (score < o.appearance_lost_score && !filter_sure) {
     // It looks wrong. Lost after appearance_lost_frames of that while few
     // features carry it, three times as long while many do (a turning or

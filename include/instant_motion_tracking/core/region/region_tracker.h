@@ -28,14 +28,16 @@
 //
 // Appearance (when the frames' images are given): each region keeps a small
 // template of its look (region_appearance.h), taken at placement and blended
-// with later looks on confident frames. After the motion step the template
-// is matched around the new box: a clearly better match nearby corrects slow
-// drift (fully when the motion step had no support of its own: featureless,
-// coasting, or no camera model); a region that stops looking like itself for
-// `appearance_lost_frames` frames is lost; and a lost region is searched for
-// around its last place and, every `reacquire_interval` frames, over the
-// whole frame, and becomes `tracked` again on a strong match (its `reason`
-// says so on that frame). The look costs far more than the motion step: with
+// with later looks on confident frames (and on half matches, above
+// `appearance_lost_score`, while many features carry it: a tilting target's
+// look changes faster than its strong matches would teach it). After the
+// motion step the template is matched around the new box: a clearly better
+// match nearby corrects slow drift (fully when the motion step had no
+// support of its own: featureless, coasting, or no camera model); a region
+// that stops looking like itself for `appearance_lost_frames` frames is
+// lost; and a lost region is searched for around its last place and, every
+// `reacquire_interval` frames, over the whole frame, and becomes `tracked`
+// again on a strong match (its `reason` says so on that frame). The look costs far more than the motion step: with
 // more regions than `appearance_budget`, each region's look is checked on
 // its turn only (every ceil(regions / budget) frames, staggered by id),
 // whether the features carry it or it is in doubt, taking on that frame the
@@ -315,8 +317,8 @@ class RegionTracker {
   static constexpr int kLookStretchRun = 3;    // tries in a row before it counts
   static constexpr int kLookStretchEvery = 3;  // a try every this many strong look checks (staggered by id)
   // The motion confidence at which the features carry a region firmly: its
-  // look learns without the look at placement's consent, and its size is
-  // theirs alone.
+  // look learns without the look at placement's consent (and on half
+  // matches, from appearance_lost_score), and its size is theirs alone.
   static constexpr double kFirmlyCarried = 0.75;
 
   RegionTrackerOptions options_;

@@ -6,8 +6,8 @@ frame's, its halves backward and forward; every 2nd frame; every 3rd), as
 means over nudged starts, and from the first frame's box perturbed as OTB's
 spatial robustness evaluation does (`--sre`: shifted by a tenth of its sides,
 scaled by 0.8-1.2; 12 runs), with a mean row. Two benchmark processes at a
-time, each on a core of its own (taskset), so the six take about a minute and
-a half on two cores. A tracking change is judged on this table before and
+time, each on a core of its own (taskset), so the six take about a minute on
+two cores. A tracking change is judged on this table before and
 after, whole.
 
 usage: region_table.py [--bench PATH] [--starts N] [--save FILE] [--against FILE]

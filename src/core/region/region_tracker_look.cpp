@@ -302,6 +302,12 @@ void RegionTracker::checkAppearance(const RegionState& state, RegionState* next,
     }
   }
   next->appearance_score = score;
+  // The template learns this frame's look (the frames since its last check
+  // counted as well).
+  const auto learnLook = [&] {
+    next->appearance.blend(image, next->box, 1 - std::pow(1 - o.appearance_update, state.look_age + 1), next->angle);
+    next->look_size = next->box.size();
+  };
   if (score >= o.appearance_accept) {
     // Before its template learns this view at the box's size.
     if (next->found_frames >= 0) checkFoundSize(next, image);
@@ -320,19 +326,14 @@ void RegionTracker::checkAppearance(const RegionState& state, RegionState* next,
         const double tolerance = 0.015 * std::max(next->box.width, next->box.height);
         return first.found && first.score >= o.appearance_lost_score && std::hypot(d.x, d.y) <= tolerance;
       };
-      if (motion_confidence >= kFirmlyCarried || firstAgrees()) {
-        next->appearance.blend(image, next->box, 1 - std::pow(1 - o.appearance_update, state.look_age + 1),
-                               next->angle);
-        next->look_size = next->box.size();
-      }
+      if (motion_confidence >= kFirmlyCarried || firstAgrees()) learnLook();
     }
   } else if (score >= o.appearance_lost_score && !motion_weak && motion_confidence >= kFirmlyCarried) {
     // A region the features carry firmly, whose look changes (a card
     // tilting away) faster than its strong matches could teach the
     // template: the features vouch for it, and the template learns this
     // view too, before it stops recognising the region at all.
-    next->appearance.blend(image, next->box, 1 - std::pow(1 - o.appearance_update, state.look_age + 1), next->angle);
-    next->look_size = next->box.size();
+    learnLook();
   } else if (score < o.appearance_lost_score && !filter_sure) {
     // It looks wrong. Lost after appearance_lost_frames of that while few
     // features carry it, three times as long while many do (a turning or

@@ -37,8 +37,9 @@
 // that stops looking like itself for `appearance_lost_frames` frames is
 // lost; and a lost region is searched for around its last place and, every
 // `reacquire_interval` frames, over the whole frame, and becomes `tracked`
-// again on a strong match (its `reason` says so on that frame). The look costs far more than the motion step: with
-// more regions than `appearance_budget`, each region's look is checked on
+// again on a strong match (its `reason` says so on that frame). The look
+// costs far more than the motion step: with more regions than
+// `appearance_budget`, each region's look is checked on
 // its turn only (every ceil(regions / budget) frames, staggered by id),
 // whether the features carry it or it is in doubt, taking on that frame the
 // nudges and template updates of the frames it skipped (its patience before

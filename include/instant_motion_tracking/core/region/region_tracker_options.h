@@ -107,7 +107,8 @@ struct RegionTrackerOptions {
     v("appearance_gap", appearance_gap,
       "the better box must beat the motion's box by this much correlation (the features are more precise)");
     v("appearance_update", appearance_update,
-      "weight of the current look blended into the template on confident frames");
+      "weight of the current look blended into the template on confident frames (and, while many features carry "
+      "the region, on frames its look still scores appearance_lost_score)");
     v("appearance_lost_score", appearance_lost_score,
       "correlation below which the region does not look like itself");
     v("appearance_lost_frames", appearance_lost_frames,
